@@ -1,0 +1,26 @@
+"""Console entry points: ``bridge`` runs one bus node."""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from drive_bridge.resources import shipped_config
+
+
+def bridge_main(argv: list[str] | None = None) -> None:
+    """``bridge [CONFIG] [--ros-args ...]``: run the bus node; no CONFIG runs the demo."""
+    args = sys.argv[1:] if argv is None else argv
+    ros_args = args[args.index('--ros-args'):] if '--ros-args' in args else []
+    own = args[:len(args) - len(ros_args)]
+    parser = argparse.ArgumentParser(prog='bridge', description=bridge_main.__doc__)
+    parser.add_argument('config', nargs='?', default='',
+                        help='bus configuration YAML (default: the shipped demo on a virtual bus)')
+    options = parser.parse_args(own)
+    config = options.config
+    if not config and not any('config:=' in a for a in ros_args):
+        config = str(shipped_config('demo.yaml'))
+        # The demo must keep DDS on loopback unless the user chose otherwise.
+        os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    from drive_bridge.ros.node import run  # imports rclpy: only after the environment is set
+    run(config, ['bridge', *ros_args])

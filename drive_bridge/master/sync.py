@@ -1,0 +1,161 @@
+"""The SYNC producer and the bridge's cycle.
+
+The bridge sends SYNC from its own thread rather than python-can's periodic task:
+on every interface but SocketCAN that task is a Python thread which, after a stall,
+sends the missed SYNCs back to back (measured in docs/python-ecosystem.md §1.3), and
+drives latch setpoints on each SYNC. Here each cycle runs the ``before_sync`` hooks
+(which send the RPDOs with the setpoints for this SYNC), then sends SYNC, then the
+``after_sync`` hooks. Deadlines are absolute; a missed deadline is skipped and counted,
+never made up with a burst.
+"""
+from __future__ import annotations
+
+import statistics
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+SYNC_COB_ID = 0x080
+
+CycleHook = Callable[[int], None]
+
+
+@dataclass(frozen=True)
+class SyncStats:
+    """Measured SYNC timing over the last window of cycles (seconds)."""
+
+    period: float
+    cycles: int
+    skipped: int
+    interval_median: float
+    interval_p99: float
+    interval_max: float
+    jitter_max: float
+    lead_median: float
+    lead_max: float
+    hook_errors: int
+
+
+def _percentile(values: list[float], fraction: float) -> float:
+    if not values:
+        return 0.0
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(fraction * len(ordered)))]
+
+
+class SyncProducer:
+    """Runs the cycle: before-SYNC hooks, SYNC frame, after-SYNC hooks."""
+
+    def __init__(self, send: Callable[[int, bytes], None], period: float, *,
+                 send_sync: bool = True, window: int = 2000,
+                 on_error: Callable[[str], None] | None = None) -> None:
+        if period <= 0:
+            raise ValueError(f'SYNC period must be > 0 s, got {period}')
+        self.period = period
+        self.send_sync = send_sync
+        self._send = send
+        self._on_error = on_error
+        self._before: list[CycleHook] = []
+        self._after: list[CycleHook] = []
+        self._intervals: deque[float] = deque(maxlen=window)
+        self._leads: deque[float] = deque(maxlen=window)
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self.cycles = 0
+        self.skipped = 0
+        self.hook_errors = 0
+        self.last_sync_time = 0.0
+
+    def add_before_sync(self, hook: CycleHook) -> None:
+        """Hook called with the cycle number before that cycle's SYNC is sent."""
+        with self._lock:
+            self._before = [*self._before, hook]
+
+    def add_after_sync(self, hook: CycleHook) -> None:
+        """Hook called with the cycle number right after that cycle's SYNC is sent."""
+        with self._lock:
+            self._after = [*self._after, hook]
+
+    def remove_hook(self, hook: CycleHook) -> None:
+        with self._lock:
+            self._before = [h for h in self._before if h is not hook]
+            self._after = [h for h in self._after if h is not hook]
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name='drive_bridge-sync', daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def _call(self, hooks: list[CycleHook], cycle: int) -> None:
+        for hook in hooks:
+            try:
+                hook(cycle)
+            except Exception as exc:  # one bad hook must not stop SYNC for everyone
+                self.hook_errors += 1
+                if self._on_error is not None:
+                    self._on_error(f'cycle hook {getattr(hook, "__qualname__", hook)!r} failed: {exc!r}')
+
+    def _run(self) -> None:
+        deadline = time.perf_counter() + self.period
+        previous = 0.0
+        while not self._stop.is_set():
+            delay = deadline - time.perf_counter()
+            if delay > 0 and self._stop.wait(delay):
+                break
+            now = time.perf_counter()
+            late_periods = int((now - deadline) / self.period)
+            if late_periods > 0:  # skip what was missed; never burst
+                self.skipped += late_periods
+                deadline += late_periods * self.period
+            deadline += self.period
+            cycle = self.cycles
+            self._call(self._before, cycle)
+            hooks_done = time.perf_counter()
+            if self.send_sync:
+                try:
+                    self._send(SYNC_COB_ID, b'')
+                except Exception as exc:
+                    self.hook_errors += 1
+                    if self._on_error is not None:
+                        self._on_error(f'sending SYNC failed: {exc!r}')
+            sent = time.perf_counter()
+            self.last_sync_time = time.time()
+            if previous:
+                self._intervals.append(sent - previous)
+            if self._before:
+                self._leads.append(sent - hooks_done)
+            previous = sent
+            self.cycles += 1
+            self._call(self._after, cycle)
+
+    def stats(self) -> SyncStats:
+        """Timing of the recent window: intervals between SYNCs and setpoint lead."""
+        intervals = list(self._intervals)
+        leads = list(self._leads)
+        return SyncStats(
+            period=self.period,
+            cycles=self.cycles,
+            skipped=self.skipped,
+            interval_median=statistics.median(intervals) if intervals else 0.0,
+            interval_p99=_percentile(intervals, 0.99),
+            interval_max=max(intervals, default=0.0),
+            jitter_max=max((abs(x - self.period) for x in intervals), default=0.0),
+            lead_median=statistics.median(leads) if leads else 0.0,
+            lead_max=max(leads, default=0.0),
+            hook_errors=self.hook_errors,
+        )

@@ -1,0 +1,1 @@
+"""The ROS 2 layer: one BusNode per CAN bus. Only this package imports rclpy."""

@@ -1,0 +1,80 @@
+"""Helpers for tests that use rclpy: a private context spun in a background thread."""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+T = TypeVar('T')
+
+
+class RosHarness:
+    """An rclpy context with an executor thread; nodes added to it are spun."""
+
+    def __init__(self) -> None:
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        while self.context.ok():
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception:  # shutdown races end the loop
+                if not self.context.ok():
+                    return
+                raise
+
+    def node(self, name: str, **kwargs: Any) -> Node:
+        node = Node(name, context=self.context, **kwargs)
+        self.executor.add_node(node)
+        return node
+
+    def add(self, node: Node) -> Node:
+        self.executor.add_node(node)
+        return node
+
+    def call(self, client: Any, request: Any, timeout: float = 10.0) -> Any:
+        """Call a service and wait for the response; fails the test on timeout."""
+        assert client.wait_for_service(timeout_sec=timeout), f'service {client.srv_name} not available'
+        future = client.call_async(request)
+        return wait_for(lambda: future.result() if future.done() else None, timeout,
+                        f'no response from {client.srv_name}')
+
+    def shutdown(self) -> None:
+        for node in list(self.executor.get_nodes()):
+            self.executor.remove_node(node)
+            node.destroy_node()
+        self.executor.shutdown()
+        rclpy.shutdown(context=self.context)
+        self._thread.join(timeout=5)
+
+
+def wait_for(check: Callable[[], T | None], timeout: float, what: str) -> T:
+    """Poll ``check`` until it returns something not None (or falsy but not None)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = check()
+        if value is not None and value is not False:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f'timed out after {timeout} s waiting for {what}')
+        time.sleep(0.01)
+
+
+@contextmanager
+def ros_harness() -> Iterator[RosHarness]:
+    harness = RosHarness()
+    try:
+        yield harness
+    finally:
+        harness.shutdown()

@@ -1,0 +1,43 @@
+"""The set-up commands: an idempotent, fast bootstrap and the demo bridge."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from drive_bridge_interfaces.msg import CanFrame
+from rostools import RosHarness, wait_for
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def test_second_bootstrap_is_a_fast_no_op() -> None:
+    env = dict(os.environ, DRIVE_BRIDGE_VENV=sys.prefix)
+    started = time.monotonic()
+    run = subprocess.run(['bash', str(REPO / 'tools' / 'bootstrap.sh')], env=env,
+                         capture_output=True, text=True, timeout=600)
+    elapsed = time.monotonic() - started
+    assert run.returncode == 0, run.stderr
+    assert 'installing' not in run.stderr and 'building' not in run.stderr, run.stderr
+    assert elapsed < 10, f'bootstrap took {elapsed:.1f} s with everything in place'
+
+
+def test_demo_bridge_publishes_until_sigint(ros: RosHarness) -> None:
+    exe = Path(sys.prefix) / 'bin' / 'bridge'
+    proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        frames: list[CanFrame] = []
+        ros.node('watcher').create_subscription(CanFrame, '/drive_bridge/can_frames', frames.append, 100)
+        wait_for(lambda: len(frames) >= 20, 30, '20 frames from the demo bridge')
+        assert all(f.header.frame_id == 'drive_bridge_demo' for f in frames)
+        assert proc.poll() is None
+        os.killpg(proc.pid, signal.SIGINT)
+        out, _ = proc.communicate(timeout=20)
+        assert proc.returncode == 0, out
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
