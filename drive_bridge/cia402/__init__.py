@@ -1,0 +1,1 @@
+"""CiA 402 (drives and motion control): vocabulary, state machine, axis."""

@@ -1,0 +1,14 @@
+"""A CiA 301 node without CiA 402 (I/O modules, proxies): booted, monitored, SDO/PDO only."""
+from __future__ import annotations
+
+from drive_bridge.families.base import DriveFamily, register_family
+
+
+@register_family
+class Generic301(DriveFamily):
+    """No axes and no default PDO map: the config gives the EDS and any PDOs."""
+
+    name = 'generic_301'
+    description = 'CiA 301 node without a drive profile (needs an EDS in the config)'
+    has_cia402 = False
+    max_axes = 0

@@ -1,0 +1,60 @@
+"""Any drive that follows CiA 402 with free PDO mapping (the default family)."""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from drive_bridge.cia402 import objects as obj
+from drive_bridge.config.model import AxisConfig, PdoConfig, PdoEntry
+from drive_bridge.families.base import DATA_DIR, DriveFamily, predefined_cob_id, register_family
+
+SYNC_EVERY_CYCLE = 1
+EVENT_DRIVEN = 255
+
+
+def _entries(slot: int, *objects: tuple[int, int]) -> tuple[PdoEntry, ...]:
+    return tuple(PdoEntry(obj.for_axis(index, slot), 0, bits) for index, bits in objects)
+
+
+@register_family
+class Generic402(DriveFamily):
+    """Two RPDOs and two TPDOs per axis carry everything every standard mode needs, so
+    modes can change on the fly without remapping:
+
+    - RPDO 2k+1: controlword, modes of operation, target torque (40 bits)
+    - RPDO 2k+2: target position, target velocity (64 bits)
+    - TPDO 2k+1: statusword, modes of operation display, torque actual (40 bits)
+    - TPDO 2k+2: position actual, velocity actual (64 bits)
+    """
+
+    name = 'generic_402'
+    description = 'CiA 402 drive with free PDO mapping'
+    default_eds = DATA_DIR / 'generic402.eds'
+    max_axes = 2  # the predefined connection set has four PDOs each way
+
+    def eds_for(self, axis_count: int) -> Path | None:
+        return DATA_DIR / 'generic402_2axis.eds' if axis_count == 2 else self.default_eds
+
+    def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
+                     synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        rpdos: list[PdoConfig] = []
+        tpdos: list[PdoConfig] = []
+        rx_type = SYNC_EVERY_CYCLE if synchronous else EVENT_DRIVEN
+        tx_type = SYNC_EVERY_CYCLE if synchronous else EVENT_DRIVEN
+        timer = 0 if synchronous else 10  # ms: event-driven TPDOs also refresh periodically
+        for k, axis in enumerate(axes):
+            s = axis.slot
+            numbered = (
+                (2 * k + 1,
+                 _entries(s, (obj.CONTROLWORD, 16), (obj.MODES_OF_OPERATION, 8), (obj.TARGET_TORQUE, 16)),
+                 _entries(s, (obj.STATUSWORD, 16), (obj.MODES_OF_OPERATION_DISPLAY, 8), (obj.TORQUE_ACTUAL, 16))),
+                (2 * k + 2,
+                 _entries(s, (obj.TARGET_POSITION, 32), (obj.TARGET_VELOCITY, 32)),
+                 _entries(s, (obj.POSITION_ACTUAL, 32), (obj.VELOCITY_ACTUAL, 32))),
+            )
+            for number, rx_map, tx_map in numbered:
+                rpdos.append(PdoConfig(number, predefined_cob_id('rpdo', number, node_id),
+                                       transmission=rx_type, mapping=rx_map))
+                tpdos.append(PdoConfig(number, predefined_cob_id('tpdo', number, node_id),
+                                       transmission=tx_type, event_timer=timer, mapping=tx_map))
+        return tuple(rpdos), tuple(tpdos)
