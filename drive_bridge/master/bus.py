@@ -46,13 +46,13 @@ class TappedBus(can.BusABC):
     """A bus proxy that reports sent (``is_rx=False``) and received frames to a tap."""
 
     def __init__(self, inner: can.BusABC, tap: FrameTap) -> None:
-        # BusABC.__init__ is not called: the inner bus owns channel, filters and state.
         self._inner = inner
         self._tap = tap
+        super().__init__(channel=getattr(inner, 'channel', None))  # no filters: the inner bus filters
         self.channel_info = f'tapped {inner.channel_info}'
-        self._periodic_tasks = []
-        self._filters = None
-        self._is_shutdown = False
+
+    # periodic sends (e.g. the master heartbeat) use BusABC's thread task, which calls
+    # send() and so passes the tap
 
     @property
     def inner(self) -> can.BusABC:

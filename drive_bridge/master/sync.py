@@ -117,12 +117,6 @@ class SyncProducer:
             delay = deadline - time.perf_counter()
             if delay > 0 and self._stop.wait(delay):
                 break
-            now = time.perf_counter()
-            late_periods = int((now - deadline) / self.period)
-            if late_periods > 0:  # skip what was missed; never burst
-                self.skipped += late_periods
-                deadline += late_periods * self.period
-            deadline += self.period
             cycle = self.cycles
             self._call(self._before, cycle)
             hooks_done = time.perf_counter()
@@ -142,6 +136,12 @@ class SyncProducer:
             previous = sent
             self.cycles += 1
             self._call(self._after, cycle)
+            # stay on the period grid; a grid point closer than half a period to this
+            # SYNC (we ran late) is skipped, so drives never see SYNCs back to back
+            deadline += self.period
+            while deadline - sent < self.period / 2:
+                deadline += self.period
+                self.skipped += 1
 
     def stats(self) -> SyncStats:
         """Timing of the recent window: intervals between SYNCs and setpoint lead."""

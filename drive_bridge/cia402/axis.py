@@ -1,0 +1,493 @@
+"""One CiA 402 axis: intents from any thread, controlword and targets decided each cycle.
+
+The axis never blocks the cycle: :meth:`Axis.on_cycle` (called by the master just
+before each SYNC) reads the latest statusword, decides the controlword that moves the
+drive one transition toward the wanted state, adds the mode bits (PP set-point
+handshake, homing start, IP enable, HALT) and writes targets. Intents such as
+:meth:`enable` set what is wanted and wait, with a timeout, for the statusword to
+confirm it. Process data goes through a :class:`NodeIo`, so the same logic serves
+objects mapped in PDOs and objects reached by SDO.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia402 import statemachine as sm
+from drive_bridge.cia402.modes import (CYCLIC_MODES, POSITION_MODES, SUPPORT_BITS, TORQUE_MODES,
+                                       VELOCITY_MODES, Mode, mode_name, parse_mode)
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.config.model import AxisConfig, Timeouts
+from drive_bridge.master.emcy import EmcyEvent
+
+HOLD_COMMAND = {
+    State.READY_TO_SWITCH_ON: sm.CMD_SHUTDOWN,
+    State.SWITCHED_ON: sm.CMD_SWITCH_ON,
+    State.OPERATION_ENABLED: sm.CMD_ENABLE_OPERATION,
+    State.QUICK_STOP_ACTIVE: sm.CMD_QUICK_STOP,
+}
+
+
+class NodeIo(Protocol):
+    """What an axis needs from its node (implemented by master.node.NodeRuntime)."""
+
+    node_id: int
+    name: str
+    available: bool
+    nmt_state: str
+
+    def read(self, index: int, subindex: int = 0) -> int | float | None: ...
+    def write(self, index: int, subindex: int, value: int | float) -> None: ...
+    def stamp(self, index: int, subindex: int = 0) -> float: ...
+    def has_object(self, index: int, subindex: int = 0) -> bool: ...
+    def sdo_read(self, index: int, subindex: int = 0) -> int | float | str | bytes: ...
+    def sdo_write(self, index: int, subindex: int, value: int | float) -> None: ...
+    def emcy_history(self) -> tuple[EmcyEvent, ...]: ...
+    def add_input_listener(self, listener: Callable[[frozenset[tuple[int, int]], float], None]) -> None: ...
+
+
+class AxisError(Exception):
+    """An intent that could not be carried out; the message says why."""
+
+
+@dataclass(frozen=True)
+class Setpoint:
+    """A cyclic command in SI; None fields are not commanded."""
+
+    position: float | None = None
+    velocity: float | None = None
+    effort: float | None = None
+
+
+SetpointSource = Callable[[float], Setpoint | None]
+
+
+@dataclass(frozen=True)
+class AxisSnapshot:
+    """Immutable state of one axis for the ROS layer."""
+
+    joint: str
+    node_id: int
+    node_name: str
+    slot: int
+    available: bool
+    nmt_state: str
+    state: State
+    statusword: int
+    controlword: int
+    mode: int  # modes of operation display (0x6061)
+    requested_mode: int  # what the bridge writes to 0x6060
+    position: float  # SI (rad or m); NaN when never received
+    velocity: float
+    effort: float
+    stamp: float  # epoch seconds when the position was received
+    fault: bool
+    warning: bool
+    target_reached: bool
+    internal_limit: bool
+    following_error: bool
+    halted: bool
+    command_stale: bool  # the command dead-man is holding the axis
+    last_emcy: EmcyEvent | None
+    message: str
+
+    @property
+    def mode_name(self) -> str:
+        return mode_name(self.mode)
+
+
+class Axis:
+    """A CiA 402 axis of one node slot, mapped to one joint."""
+
+    def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts) -> None:
+        self.node = node
+        self.config = config
+        self.timeouts = timeouts
+        self.joint = config.joint
+        slot = config.slot
+        self.key = {name: (obj.for_axis(index, slot), 0) for name, index in (
+            ('controlword', obj.CONTROLWORD), ('statusword', obj.STATUSWORD),
+            ('mode', obj.MODES_OF_OPERATION), ('mode_display', obj.MODES_OF_OPERATION_DISPLAY),
+            ('position', obj.POSITION_ACTUAL), ('velocity', obj.VELOCITY_ACTUAL),
+            ('torque', obj.TORQUE_ACTUAL), ('target_position', obj.TARGET_POSITION),
+            ('target_velocity', obj.TARGET_VELOCITY), ('target_torque', obj.TARGET_TORQUE),
+            ('supported_modes', obj.SUPPORTED_DRIVE_MODES), ('homing_method', obj.HOMING_METHOD),
+            ('home_offset', obj.HOME_OFFSET), ('homing_acceleration', obj.HOMING_ACCELERATION),
+            ('error_code', obj.ERROR_CODE))}
+        self._cond = threading.Condition()
+        self._target_state: State | None = None
+        self._halt = False
+        self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
+        self._mode = config.mode
+        self._pp_new = False  # a PP target waits for its set-point handshake
+        self._pp_ack_seen = False
+        self._homing = False
+        self._ip_enabled = False
+        self._targets: dict[str, int] = {}  # device units, by target key name
+        self._source: SetpointSource | None = None
+        self._last_command = 0.0  # monotonic time of the last streamed command
+        self._stale = False
+        self._written: dict[tuple[int, int], int | float] = {}
+        self._controlword = 0
+        self._message = ''
+        self._reset_emcy_count = 0
+        self.supported_modes: int | None = None
+        node.add_input_listener(self._on_input)
+
+    # -- bus side ---------------------------------------------------------------------------
+    def _on_input(self, keys: frozenset[tuple[int, int]], _stamp: float) -> None:
+        if self.key['statusword'] in keys or self.key['mode_display'] in keys:
+            with self._cond:
+                self._cond.notify_all()
+
+    def _value(self, name: str) -> int | float | None:
+        return self.node.read(*self.key[name])
+
+    @property
+    def ready(self) -> bool:
+        """The axis has seen a statusword, so its controlword can be decided safely."""
+        return self._value('statusword') is not None
+
+    @property
+    def state(self) -> State:
+        statusword = self._value('statusword')
+        return State.UNKNOWN if statusword is None else sm.state_from_statusword(int(statusword))
+
+    def _write(self, name: str, value: int | float) -> None:
+        key = self.key[name]
+        if self._written.get(key) != value:
+            self._written[key] = value
+            self.node.write(*key, value)
+
+    def on_cycle(self, now: float) -> None:
+        """Decide this cycle's controlword, mode and targets (cycle thread, non-blocking)."""
+        statusword = self._value('statusword')
+        if statusword is None:
+            return
+        statusword = int(statusword)
+        state = sm.state_from_statusword(statusword)
+        with self._cond:
+            command = self._device_command(state)
+            mode_bits = self._mode_bits(state, statusword)
+            controlword = command | mode_bits | (sm.CW_HALT if self._halt else 0)
+            self._controlword = controlword
+            mode = self._mode
+            targets = self._cycle_targets(state, now)
+        self._write('mode', mode)
+        for name, value in targets.items():
+            self._write(name, value)
+        self._write('controlword', controlword)
+
+    def _device_command(self, state: State) -> int:
+        if self._fault_reset_phase == 1:
+            self._fault_reset_phase = 2
+            return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)  # bit 7 low: the edge comes next
+        if self._fault_reset_phase == 2:
+            if state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+                self._fault_reset_phase = 0
+            else:
+                return sm.CMD_FAULT_RESET
+        if self._target_state is None:
+            return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)
+        command = sm.next_command(state, self._target_state)
+        return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE) if command is None else command
+
+    def _mode_bits(self, state: State, statusword: int) -> int:
+        if state is not State.OPERATION_ENABLED:
+            return 0
+        mode = int(self._value('mode_display') or 0)
+        if mode == Mode.PROFILE_POSITION and self._pp_new:
+            if statusword & sm.SW_OMS_12:  # set-point acknowledged: drop bit 4
+                self._pp_new = False
+                self._pp_ack_seen = True
+                return 0
+            return sm.CW_OMS_4 | sm.CW_OMS_5  # new set-point, change immediately
+        if mode == Mode.HOMING and self._homing:
+            return sm.CW_OMS_4
+        if mode == Mode.INTERPOLATED_POSITION and self._ip_enabled:
+            return sm.CW_OMS_4
+        return 0
+
+    def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
+        mode = self._mode
+        actual = self._value('position')
+        if state is not State.OPERATION_ENABLED or (not self._targets and self._source is None):
+            # follow the actual position until commanded: enabling never jumps
+            hold = {'target_velocity': 0, 'target_torque': 0}
+            if actual is not None and mode != Mode.PROFILE_POSITION:
+                hold['target_position'] = int(actual)
+            if state is not State.OPERATION_ENABLED:
+                self._targets.clear()
+                self._stale = False
+            return hold if not self._targets else {**hold, **self._targets}
+        if self._source is not None:
+            setpoint = self._source(now)
+            if setpoint is not None:
+                self._apply_setpoint(setpoint)
+        if mode in CYCLIC_MODES and self._last_command and \
+                time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
+            self._stale = True
+            self._message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
+                             f'{mode_name(mode)}: holding position')
+            self._targets = {'target_velocity': 0, 'target_torque': 0}
+            if actual is not None:
+                self._targets['target_position'] = int(actual)
+        return dict(self._targets)
+
+    def _apply_setpoint(self, setpoint: Setpoint) -> None:
+        scaling = self.config.scaling
+        if setpoint.position is not None:
+            self._targets['target_position'] = scaling.position_to_device(setpoint.position)
+        if setpoint.velocity is not None:
+            self._targets['target_velocity'] = scaling.velocity_to_device(setpoint.velocity)
+        if setpoint.effort is not None:
+            self._targets['target_torque'] = scaling.effort_to_device(setpoint.effort)
+        self._last_command = time.monotonic()
+        self._stale = False
+
+    # -- intents (any thread but the CAN Notifier) -------------------------------------------
+    def _where(self) -> str:
+        return f'axis {self.joint!r} (node {self.node.node_id} {self.node.name}, slot {self.config.slot})'
+
+    def _require_available(self) -> None:
+        if not self.node.available:
+            raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state}); '
+                            'wait for it to boot or check its heartbeat')
+
+    def _wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while not done():
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    statusword = self._value('statusword')
+                    sw_text = 'no statusword received' if statusword is None else f'statusword 0x{int(statusword):04X}'
+                    raise AxisError(f'{self._where()}: {what} not reached after {timeout * 1000:.0f} ms '
+                                    f'(state {self.state.label}, {sw_text})')
+                self._cond.wait(min(remaining, 0.05))
+
+    def _fault_text(self) -> str:
+        emcy = self.last_emcy()
+        return f'; last EMCY 0x{emcy.code:04X} {emcy.text}' if emcy else ''
+
+    def _go_to(self, target: State, timeout: float | None) -> None:
+        self._require_available()
+        if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+            raise AxisError(f'{self._where()}: in {self.state.label}{self._fault_text()}; reset the fault first')
+        with self._cond:
+            self._target_state = target
+        wait = timeout if timeout is not None else self.timeouts.state_switch * 4
+
+        def reached() -> bool:
+            state = self.state
+            if state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+                raise AxisError(f'{self._where()}: went to {state.label} while moving to '
+                                f'{target.label}{self._fault_text()}')
+            return state is target or (target is State.QUICK_STOP_ACTIVE and state is State.SWITCH_ON_DISABLED)
+        self._wait(reached, wait, target.label)
+
+    def enable(self, timeout: float | None = None) -> None:
+        """Walk to OPERATION ENABLED (shutdown, switch on, enable operation)."""
+        self._go_to(State.OPERATION_ENABLED, timeout)
+
+    def disable(self, timeout: float | None = None) -> None:
+        """Disable operation: SWITCHED ON, power stage kept (brake engages on most drives)."""
+        self._go_to(State.SWITCHED_ON, timeout)
+
+    def switch_off(self, timeout: float | None = None) -> None:
+        """Disable voltage: SWITCH ON DISABLED."""
+        self._go_to(State.SWITCH_ON_DISABLED, timeout)
+
+    def quick_stop(self, timeout: float | None = None) -> None:
+        """Quick stop: the drive ramps down with 0x6085, then (0x605A 0..4) disables."""
+        self._require_available()
+        with self._cond:
+            self._targets.clear()
+            self._source = None
+        self._go_to(State.QUICK_STOP_ACTIVE, timeout)
+
+    def halt(self, on: bool = True) -> None:
+        """The controlword HALT bit (8): the drive decelerates and stays enabled."""
+        self._require_available()
+        with self._cond:
+            self._halt = on
+            if on:
+                self._source = None
+
+    def reset_fault(self, timeout: float | None = None) -> None:
+        """Fault reset on the rising edge of bit 7; fails if the fault persists."""
+        self._require_available()
+        if self.state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+            return
+        with self._cond:
+            self._target_state = State.SWITCH_ON_DISABLED
+            self._fault_reset_phase = 1
+        wait = timeout if timeout is not None else self.timeouts.state_switch
+        try:
+            self._wait(lambda: self.state not in (State.FAULT, State.FAULT_REACTION_ACTIVE), wait,
+                       'fault reset (leaving FAULT)')
+        except AxisError as exc:
+            with self._cond:
+                self._fault_reset_phase = 0
+            raise AxisError(f'{exc}; the cause is still present{self._fault_text()}') from None
+        self._reset_emcy_count = len(self.node.emcy_history())
+
+    def _check_supported(self, mode: int) -> None:
+        if self.supported_modes is None and self.node.has_object(*self.key['supported_modes']):
+            self.supported_modes = int(self.node.sdo_read(*self.key['supported_modes']))  # type: ignore[arg-type]
+        if self.supported_modes is None or mode < 0 or Mode(mode) not in SUPPORT_BITS:
+            return
+        if not self.supported_modes >> SUPPORT_BITS[Mode(mode)] & 1:
+            names = ', '.join(mode_name(m) for m, bit in SUPPORT_BITS.items() if self.supported_modes >> bit & 1)
+            raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not supported by the drive '
+                            f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
+
+    def set_mode(self, mode: int | str, timeout: float | None = None) -> None:
+        """Write 0x6060 and wait until 0x6061 confirms it."""
+        self._require_available()
+        code = parse_mode(mode)
+        self._check_supported(code)
+        with self._cond:
+            if code != self._mode:
+                self._targets.clear()
+                self._source = None
+                self._pp_new = False
+            self._mode = code
+        wait = timeout if timeout is not None else self.timeouts.mode_switch
+        self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+
+    @property
+    def mode(self) -> int:
+        """The mode the bridge requests (0x6060)."""
+        return self._mode
+
+    def _check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
+        limits = self.config.limits
+        for name, value in (('position', position), ('velocity', velocity), ('effort', effort)):
+            if value is not None and not math.isfinite(value):
+                raise AxisError(f'{self._where()}: {name} {value} is not a finite number')
+        if position is not None:
+            if limits.min_position is not None and position < limits.min_position - 1e-12:
+                raise AxisError(f'{self._where()}: position {position:.6g} is below the limit {limits.min_position:.6g}')
+            if limits.max_position is not None and position > limits.max_position + 1e-12:
+                raise AxisError(f'{self._where()}: position {position:.6g} is above the limit {limits.max_position:.6g}')
+        if velocity is not None and limits.max_velocity is not None and abs(velocity) > limits.max_velocity + 1e-12:
+            raise AxisError(f'{self._where()}: velocity {velocity:.6g} exceeds the limit {limits.max_velocity:.6g}')
+        if effort is not None and limits.max_effort is not None and abs(effort) > limits.max_effort + 1e-12:
+            raise AxisError(f'{self._where()}: effort {effort:.6g} exceeds the limit {limits.max_effort:.6g}')
+
+    def command(self, position: float | None = None, velocity: float | None = None,
+                effort: float | None = None) -> None:
+        """Set targets in SI for the current mode (non-blocking; sent on the next cycle).
+
+        In profile position mode a new position starts a set-point handshake. In cyclic
+        modes commands feed the dead-man: if they stop for ``command_timeout`` the axis holds.
+        """
+        self._check_limits(position, velocity, effort)
+        mode = self._mode
+        if position is not None and mode not in POSITION_MODES:
+            raise AxisError(f'{self._where()}: a position command needs a position mode; mode is {mode_name(mode)}')
+        if velocity is not None and mode not in VELOCITY_MODES and mode != Mode.CYCLIC_SYNC_POSITION:
+            raise AxisError(f'{self._where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
+        if effort is not None and mode not in TORQUE_MODES and mode not in CYCLIC_MODES:
+            raise AxisError(f'{self._where()}: an effort command needs a torque mode; mode is {mode_name(mode)}')
+        with self._cond:
+            self._apply_setpoint(Setpoint(position, velocity if mode in VELOCITY_MODES else None,
+                                          effort if mode in TORQUE_MODES else None))
+            if mode == Mode.PROFILE_POSITION and position is not None:
+                self._pp_new = True
+                self._pp_ack_seen = False
+            if mode not in CYCLIC_MODES:
+                self._last_command = 0.0  # profile modes keep their target: no dead-man
+
+    def set_setpoint_source(self, source: SetpointSource | None) -> None:
+        """A function sampled each cycle (trajectory streaming); None stops sampling."""
+        with self._cond:
+            self._source = source
+            if source is None:
+                self._last_command = time.monotonic()  # the dead-man then holds if nothing follows
+
+    def enable_interpolation(self, on: bool) -> None:
+        """Controlword bit 4 in interpolated position mode."""
+        with self._cond:
+            self._ip_enabled = on
+
+    def home(self, timeout: float | None = None) -> None:
+        """Run the drive's homing (0x6098 method etc. from the config, else the drive's own)."""
+        self._require_available()
+        if self.state is not State.OPERATION_ENABLED:
+            raise AxisError(f'{self._where()}: enable the axis before homing (state {self.state.label})')
+        previous = self._mode
+        self._write_homing_parameters()
+        self.set_mode(Mode.HOMING)
+        wait = timeout if timeout is not None else self.timeouts.homing
+        with self._cond:
+            self._homing = True
+
+        def finished() -> bool:
+            statusword = int(self._value('statusword') or 0)
+            if statusword & sm.SW_OMS_13:
+                raise AxisError(f'{self._where()}: the drive reports a homing error (statusword 0x{statusword:04X})')
+            if self.state is not State.OPERATION_ENABLED:
+                raise AxisError(f'{self._where()}: left operation enabled during homing ({self.state.label}){self._fault_text()}')
+            return bool(statusword & sm.SW_OMS_12 and statusword & sm.SW_TARGET_REACHED)
+        try:
+            self._wait(finished, wait, 'homing attained')
+        finally:
+            with self._cond:
+                self._homing = False
+        if previous != Mode.HOMING:
+            self.set_mode(previous)
+
+    def _write_homing_parameters(self) -> None:
+        """Homing method, speeds, acceleration and offset from the config, where given (SDO)."""
+        homing, scaling, slot = self.config.homing, self.config.scaling, self.config.slot
+        velocity = (lambda si: abs(scaling.velocity_to_device(si)))
+        writes = ((obj.HOMING_METHOD, 0, homing.method, int),
+                  (obj.HOMING_SPEEDS, 1, homing.speed_search, velocity),
+                  (obj.HOMING_SPEEDS, 2, homing.speed_zero, velocity),
+                  (obj.HOMING_ACCELERATION, 0, homing.acceleration, velocity),
+                  (obj.HOME_OFFSET, 0, homing.offset,
+                   lambda si: round(si / scaling.position_factor)))
+        for index, subindex, value, convert in writes:
+            if value is not None:
+                self.node.sdo_write(obj.for_axis(index, slot), subindex, convert(value))
+
+    def wait_target_reached(self, timeout: float) -> None:
+        """Wait for statusword bit 10 after a PP set-point was acknowledged."""
+        def reached() -> bool:
+            statusword = int(self._value('statusword') or 0)
+            return not self._pp_new and bool(statusword & sm.SW_TARGET_REACHED)
+        self._wait(reached, timeout, 'target reached')
+
+    # -- state ------------------------------------------------------------------------------
+    def last_emcy(self) -> EmcyEvent | None:
+        history = self.node.emcy_history()[self._reset_emcy_count:]
+        for event in reversed(history):
+            if not event.is_reset and event.slot in (None, self.config.slot):
+                return event
+        return None
+
+    def snapshot(self) -> AxisSnapshot:
+        statusword = self._value('statusword')
+        sw = int(statusword) if statusword is not None else 0
+        scaling = self.config.scaling
+        position, velocity, torque = (self._value(k) for k in ('position', 'velocity', 'torque'))
+        return AxisSnapshot(
+            joint=self.joint, node_id=self.node.node_id, node_name=self.node.name, slot=self.config.slot,
+            available=self.node.available and statusword is not None, nmt_state=self.node.nmt_state,
+            state=self.state, statusword=sw, controlword=self._controlword,
+            mode=int(self._value('mode_display') or 0), requested_mode=self._mode,
+            position=scaling.position_to_si(position) if position is not None else math.nan,
+            velocity=scaling.velocity_to_si(velocity) if velocity is not None else math.nan,
+            effort=scaling.effort_to_si(torque) if torque is not None else math.nan,
+            stamp=self.node.stamp(*self.key['position']),
+            fault=bool(sw & sm.SW_FAULT), warning=bool(sw & sm.SW_WARNING),
+            target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
+            following_error=bool(sw & sm.SW_OMS_13) and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION),
+            halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(), message=self._message)

@@ -1,0 +1,34 @@
+"""Events the master reports about the bus (boot, heartbeat, errors), for logs and diagnostics."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from enum import Enum
+
+
+class EventKind(str, Enum):
+    BOOTED = 'booted'
+    BOOT_FAILED = 'boot_failed'
+    HEARTBEAT_LOST = 'heartbeat_lost'
+    HEARTBEAT_BACK = 'heartbeat_back'
+    UNEXPECTED_BOOT = 'unexpected_boot'
+    ERROR = 'error'
+
+
+class Level(str, Enum):
+    INFO = 'info'
+    WARN = 'warn'
+    ERROR = 'error'
+
+
+@dataclass(frozen=True)
+class BusEvent:
+    kind: EventKind
+    level: Level
+    message: str
+    node_id: int = 0
+    node_name: str = ''
+    timestamp: float = field(default_factory=time.time)
+
+    def __str__(self) -> str:
+        return self.message

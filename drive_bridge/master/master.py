@@ -1,0 +1,335 @@
+"""The CANopen master of one bus: owns the bus, the canopen Network, the nodes and axes,
+the cycle (SYNC) and the supervision (boot, retries, heartbeats).
+
+Threads: canopen's Notifier (frames in: TPDO, heartbeat, EMCY, SDO responses), the
+cycle (RPDOs then SYNC), the supervisor (heartbeat timeouts, boot scheduling) and one
+short-lived thread per node boot. Public methods are safe from any thread except the
+Notifier (they may block on SDO).
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import can
+import canopen
+
+from drive_bridge.cia402.axis import Axis, AxisSnapshot
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.config.model import BusConfig
+from drive_bridge.master.boot import BootError, boot_node
+from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
+from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.master.events import BusEvent, EventKind, Level
+from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
+from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
+from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
+
+log = logging.getLogger('drive_bridge.master')
+
+NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
+                0x81: 'reset node', 0x82: 'reset communication'}
+BOOT_RETRY_INTERVAL = 5.0  # s between boot rounds of a node that failed all its attempts
+SUPERVISOR_PERIOD = 0.02
+UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # cycle period when the bridge sends no SYNC
+ADHOC_SDO_TIMEOUT = 0.3
+
+
+@dataclass(frozen=True)
+class BusSnapshot:
+    """The whole bus at one moment: nodes, axes, SYNC timing."""
+
+    nodes: tuple[NodeSnapshot, ...]
+    axes: tuple[AxisSnapshot, ...]
+    sync: SyncStats | None
+    bus_state: str
+    channel: str
+
+
+class Master:
+    """Start with :meth:`start`, stop with :meth:`stop` (or use as a context manager)."""
+
+    def __init__(self, config: BusConfig, bus: can.BusABC | None = None) -> None:
+        self.config = config
+        self._raw_bus = bus
+        self.tap = FrameTap()
+        self.bus: TappedBus | None = None
+        self.network = canopen.Network()
+        self.nodes: dict[str, NodeRuntime] = {}
+        self.axes: dict[str, Axis] = {}
+        self._by_id: dict[int, NodeRuntime] = {}
+        self._adhoc: dict[int, SdoChannel] = {}
+        self._adhoc_lock = threading.Lock()
+        self._event_listeners: list[Callable[[BusEvent], None]] = []
+        self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
+        self._cycle_listeners: list[Callable[[int], None]] = []
+        self.sync: SyncProducer | None = None
+        self._heartbeat_task = None
+        self._stop = threading.Event()
+        self._supervisor: threading.Thread | None = None
+        self._boot_threads: dict[str, threading.Thread] = {}
+        self.events: list[BusEvent] = []  # recent events (bounded)
+        self.started = False
+
+    # -- listeners ---------------------------------------------------------------------------
+    def add_frame_listener(self, listener: FrameListener) -> None:
+        """Every frame, both directions (``msg.is_rx``); called in bus threads, keep it short."""
+        self.tap.add_listener(listener)
+
+    def add_event_listener(self, listener: Callable[[BusEvent], None]) -> None:
+        self._event_listeners = [*self._event_listeners, listener]
+
+    def add_emcy_listener(self, listener: Callable[[EmcyEvent], None]) -> None:
+        self._emcy_listeners = [*self._emcy_listeners, listener]
+
+    def add_cycle_listener(self, listener: Callable[[int], None]) -> None:
+        """Called right after each cycle's SYNC (cycle thread, keep it short)."""
+        self._cycle_listeners = [*self._cycle_listeners, listener]
+
+    def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None) -> None:
+        event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '')
+        self.events = [*self.events[-199:], event]
+        getattr(log, {'info': 'info', 'warn': 'warning', 'error': 'error'}[level.value])(message)
+        for listener in self._event_listeners:
+            try:
+                listener(event)
+            except Exception as exc:  # a broken listener must not stop supervision
+                log.error('event listener failed: %r', exc)
+
+    def _on_emcy(self, event: EmcyEvent) -> None:
+        for listener in self._emcy_listeners:
+            try:
+                listener(event)
+            except Exception as exc:
+                log.error('EMCY listener failed: %r', exc)
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    def start(self) -> None:
+        """Open the bus, start SYNC and heartbeat, and boot every node in the background."""
+        if self.started:
+            return
+        cfg = self.config
+        raw = self._raw_bus or open_bus(cfg.bus.interface, cfg.bus.channel, cfg.bus.bitrate, **dict(cfg.bus.options))
+        self.bus = TappedBus(raw, self.tap)
+        self.network.bus = self.bus
+        self.network.connect()
+        for node_cfg in cfg.nodes:
+            node = NodeRuntime(self.network, node_cfg, cfg.master, self._on_emcy,
+                               lambda text: self._emit(EventKind.ERROR, Level.WARN, text))
+            self.nodes[node.name] = node
+            self._by_id[node.node_id] = node
+            for axis_cfg in node_cfg.axes:
+                self.axes[axis_cfg.joint] = Axis(node, axis_cfg, node_cfg.timeouts)
+        self._start_cycle()
+        if cfg.master.heartbeat_producer_ms:
+            self._heartbeat_task = self.network.send_periodic(
+                0x700 + cfg.master.node_id, b'\x05', cfg.master.heartbeat_producer_ms / 1000.0)
+        self.started = True
+        self._stop.clear()
+        self._supervisor = threading.Thread(target=self._supervise, name='drive_bridge-supervisor', daemon=True)
+        self._supervisor.start()
+
+    def _start_cycle(self) -> None:
+        master = self.config.master
+        on_error = (lambda text: self._emit(EventKind.ERROR, Level.ERROR, text))
+        if master.sync_period > 0 and master.sync_producer == 'external':
+            self._cycle_count = 0
+            self.network.subscribe(SYNC_COB_ID, self._on_external_sync)
+            return
+        period = master.sync_period if master.sync_period > 0 else UPDATE_PERIOD_WITHOUT_SYNC
+        self.sync = SyncProducer(self.network.send_message, period, send_sync=master.sync_period > 0,
+                                 on_error=on_error)
+        self.sync.add_before_sync(self._before_sync)
+        self.sync.add_after_sync(self._after_sync)
+        self.sync.start()
+
+    def _on_external_sync(self, _can_id: int, _data: bytearray, _timestamp: float) -> None:
+        """Another node produces SYNC: send the RPDOs for the next one right away."""
+        cycle = self._cycle_count
+        self._cycle_count += 1
+        self._after_sync(cycle)
+        self._before_sync(cycle + 1)
+
+    def stop(self, stop_timeout: float = 1.0) -> None:
+        """Quick-stop enabled axes (bounded wait), then stop SYNC, heartbeat and the bus."""
+        if not self.started:
+            return
+        enabled = [a for a in self.axes.values() if a.node.available and a.state is State.OPERATION_ENABLED]
+        for axis in enabled:
+            try:
+                axis.quick_stop(timeout=stop_timeout)
+            except Exception as exc:
+                log.warning('stopping %s: %s', axis.joint, exc)
+        self._stop.set()
+        if self._supervisor is not None:
+            self._supervisor.join(timeout=2)
+        for thread in list(self._boot_threads.values()):
+            thread.join(timeout=5)
+        if self.sync is not None:
+            self.sync.stop()
+        if self._heartbeat_task is not None:
+            self._heartbeat_task.stop()
+        for node in self.nodes.values():
+            node.close()
+        self.network.disconnect()  # shuts the bus down, also one passed in by the caller
+        self.started = False
+
+    def __enter__(self) -> Master:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    # -- cycle -------------------------------------------------------------------------------
+    def _before_sync(self, cycle: int) -> None:
+        now = time.time()
+        for node in self.nodes.values():
+            if not node.available:
+                continue
+            axes = [self.axes[a.joint] for a in node.config.axes]
+            if not all(axis.ready for axis in axes):
+                continue  # no statusword yet: no controlword can be decided safely
+            for axis in axes:
+                axis.on_cycle(now)
+            for cob_id, data in node.process.frames():
+                self.network.send_message(cob_id, data)
+
+    def _after_sync(self, cycle: int) -> None:
+        for listener in self._cycle_listeners:
+            listener(cycle)
+
+    # -- supervision ---------------------------------------------------------------------------
+    def _supervise(self) -> None:
+        for node in self.nodes.values():
+            node.add_state_listener(lambda n=node: self._on_node_state(n))
+        while not self._stop.wait(SUPERVISOR_PERIOD):
+            now = time.monotonic()
+            for node in self.nodes.values():
+                self._check_heartbeat(node, now)
+                if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
+                    self._start_boot(node)
+
+    def _on_node_state(self, node: NodeRuntime) -> None:
+        """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots."""
+        if node.bootup_seen.is_set() and node.boot_state in (BootState.OPERATIONAL, BootState.LOST):
+            node.bootup_seen.clear()
+            node.set_boot_state(BootState.WAITING)
+            node.next_boot_time = 0.0
+            self._emit(EventKind.UNEXPECTED_BOOT, Level.WARN,
+                       f'node {node.node_id} ({node.name}) sent a boot-up message while operational '
+                       '(reset or power cycle); configuring it again', node)
+
+    def _check_heartbeat(self, node: NodeRuntime, now: float) -> None:
+        if not node.heartbeat_timeout or node.last_heartbeat is None:
+            return
+        age = now - node.last_heartbeat
+        if node.boot_state is BootState.OPERATIONAL and age > node.heartbeat_timeout:
+            node.set_boot_state(BootState.LOST, f'heartbeat lost: none for {age * 1000:.0f} ms')
+            self._emit(EventKind.HEARTBEAT_LOST, Level.ERROR,
+                       f'node {node.node_id} ({node.name}): heartbeat lost, none for {age * 1000:.0f} ms '
+                       f'(limit {node.heartbeat_timeout * 1000:.0f} ms); its axes are unavailable', node)
+        elif node.boot_state is BootState.LOST and age < node.heartbeat_timeout:
+            if node.nmt_state == 'OPERATIONAL':
+                node.set_boot_state(BootState.OPERATIONAL)
+                self._emit(EventKind.HEARTBEAT_BACK, Level.WARN,
+                           f'node {node.node_id} ({node.name}): heartbeat back, node operational', node)
+            else:  # alive but not started (e.g. reset to pre-operational): configure again
+                node.set_boot_state(BootState.WAITING)
+                node.next_boot_time = 0.0
+
+    def _start_boot(self, node: NodeRuntime) -> None:
+        node.set_boot_state(BootState.BOOTING)
+        thread = threading.Thread(target=self._boot, args=(node,), daemon=True,
+                                  name=f'drive_bridge-boot-{node.node_id}')
+        self._boot_threads[node.name] = thread
+        thread.start()
+
+    def _boot(self, node: NodeRuntime) -> None:
+        attempts = 1 + max(0, node.config.timeouts.boot_retries)
+        error = ''
+        for _ in range(attempts):
+            if self._stop.is_set():
+                return
+            node.boot_attempts += 1
+            try:
+                boot_node(node, self.config.master, log.debug)
+            except BootError as exc:
+                error = str(exc)
+                log.info('boot attempt %d failed: %s', node.boot_attempts, error)
+                continue
+            except Exception as exc:  # never let a boot thread die silently
+                error = f'node {node.node_id} ({node.name}) boot failed unexpectedly: {exc!r}'
+                continue
+            node.set_boot_state(BootState.OPERATIONAL)
+            self._emit(EventKind.BOOTED, Level.INFO,
+                       f'node {node.node_id} ({node.name}) booted and operational '
+                       f'(attempt {node.boot_attempts})', node)
+            return
+        node.next_boot_time = time.monotonic() + BOOT_RETRY_INTERVAL
+        node.set_boot_state(BootState.FAILED, error)
+        self._emit(EventKind.BOOT_FAILED, Level.ERROR,
+                   f'{error} (after {attempts} attempt(s); retrying in {BOOT_RETRY_INTERVAL:.0f} s)', node)
+
+    def wait_until_operational(self, timeout: float, names: list[str] | None = None) -> None:
+        """Block until the given nodes (default all) are operational; TimeoutError says which are not."""
+        wanted = [self.nodes[n] for n in names] if names else list(self.nodes.values())
+        deadline = time.monotonic() + timeout
+        while True:
+            pending = [n for n in wanted if not (n.available and all(
+                self.axes[a.joint].ready for a in n.config.axes))]
+            if not pending:
+                return
+            if time.monotonic() > deadline:
+                details = '; '.join(f'node {n.node_id} ({n.name}): {n.boot_state.value}'
+                                    + (f', {n.boot_error}' if n.boot_error else '') for n in pending)
+                raise TimeoutError(f'nodes not operational after {timeout:.1f} s: {details}')
+            time.sleep(0.01)
+
+    # -- services ------------------------------------------------------------------------------
+    def node_by_id(self, node_id: int) -> NodeRuntime | None:
+        return self._by_id.get(node_id)
+
+    def _channel(self, node_id: int) -> SdoChannel:
+        if not 1 <= node_id <= 127:
+            raise SdoError(ObjectAddress(node_id, 0, 0), 'node id must be 1..127')
+        node = self._by_id.get(node_id)
+        if node is not None:
+            return node.sdo
+        with self._adhoc_lock:  # a node on the bus that is not in the configuration
+            if node_id not in self._adhoc:
+                remote = canopen.RemoteNode(node_id, canopen.ObjectDictionary())
+                self.network.add_node(remote)
+                self._adhoc[node_id] = SdoChannel(remote, ADHOC_SDO_TIMEOUT, 0)
+            return self._adhoc[node_id]
+
+    def sdo_read(self, node_id: int, index: int, subindex: int,
+                 data_type: int = AUTO) -> tuple[int, SdoPlain, bytes]:
+        """(data type, value, raw bytes). Nodes outside the config need an explicit data type."""
+        return self._channel(node_id).read(index, subindex, data_type)
+
+    def sdo_write(self, node_id: int, index: int, subindex: int, value: SdoPlain,
+                  data_type: int = AUTO) -> int:
+        return self._channel(node_id).write(index, subindex, value, data_type)
+
+    def nmt(self, command: int, node_id: int = 0) -> None:
+        """Send an NMT command to one node or (0) all; ValueError for a bad command or id."""
+        if command not in NMT_COMMANDS:
+            known = ', '.join(f'{c} ({n})' for c, n in NMT_COMMANDS.items())
+            raise ValueError(f'unknown NMT command {command}; use one of {known}')
+        if not 0 <= node_id <= 127:
+            raise ValueError(f'NMT node id must be 0 (all) or 1..127, got {node_id}')
+        self.network.send_message(0x000, bytes([command, node_id]))
+
+    def snapshot(self) -> BusSnapshot:
+        return BusSnapshot(
+            nodes=tuple(node.snapshot() for node in self.nodes.values()),
+            axes=tuple(axis.snapshot() for axis in self.axes.values()),
+            sync=self.sync.stats() if self.sync is not None else None,
+            bus_state=self.bus.state.name if self.bus is not None else 'CLOSED',
+            channel=str(self.config.bus.channel))
+
+

@@ -1,0 +1,182 @@
+"""One configured node at run time: its canopen RemoteNode, SDO channel, process data,
+NMT/heartbeat bookkeeping and EMCY history."""
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+
+import canopen
+
+from drive_bridge.config.model import MasterConfig, NodeConfig
+from drive_bridge.families import get_family
+from drive_bridge.master.emcy import EmcyEvent, decode_emcy
+from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
+from drive_bridge.master.sdo import SdoChannel
+from drive_bridge.master.sdo_worker import SdoWorker
+
+NMT_STATES = {0: 'INITIALISING', 4: 'STOPPED', 5: 'OPERATIONAL', 127: 'PRE-OPERATIONAL'}
+EMCY_HISTORY = 32
+
+
+class BootState(str, Enum):
+    """Where the master is with a node."""
+
+    WAITING = 'waiting'  # not booted yet
+    BOOTING = 'booting'
+    OPERATIONAL = 'operational'  # configured and started
+    FAILED = 'failed'  # boot failed; retried periodically
+    LOST = 'lost'  # heartbeat lost after it was operational
+
+
+@dataclass(frozen=True)
+class NodeSnapshot:
+    """Immutable view of a node for the ROS layer and diagnostics."""
+
+    name: str
+    node_id: int
+    family: str
+    boot_state: BootState
+    nmt_state: str
+    available: bool
+    heartbeat_age: float | None  # seconds since the last heartbeat, None if never seen
+    boot_attempts: int
+    boot_error: str
+    sdo_errors: int
+    last_sdo_error: str
+    pdo_errors: int
+    last_pdo_error: str
+    emcy: tuple[EmcyEvent, ...]  # newest last
+
+
+class NodeRuntime:
+    """Everything the master tracks about one node; thread-safe snapshot()."""
+
+    def __init__(self, network: canopen.Network, config: NodeConfig, master: MasterConfig,
+                 on_emcy: Callable[[EmcyEvent], None], on_error: Callable[[str], None]) -> None:
+        self.config = config
+        self.family = get_family(config.family)
+        self.network = network
+        self.remote = canopen.RemoteNode(config.node_id, config.od)
+        network.add_node(self.remote)
+        # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
+        network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
+        network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
+        self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
+        self.sdo = SdoChannel(self.remote, config.timeouts.sdo, config.timeouts.sdo_retries)
+        self.process = ProcessImage(config.od, config.rpdo, config.tpdo)
+        for cob_id in self.process.rx_layouts:
+            network.subscribe(cob_id, self.process.on_tpdo)
+        self.worker = SdoWorker(self.sdo, self._on_polled, on_error=on_error)
+        self.heartbeat_timeout = (config.heartbeat_producer_ms * master.heartbeat_multiplier / 1000.0
+                                  if config.heartbeat_producer_ms and master.heartbeat_consumer else 0.0)
+        self.boot_state = BootState.WAITING
+        self.boot_attempts = 0
+        self.boot_error = ''
+        self.next_boot_time = 0.0
+        self.nmt_state = 'UNKNOWN'
+        self.last_heartbeat: float | None = None
+        self.bootup_seen = threading.Event()
+        self._emcy: deque[EmcyEvent] = deque(maxlen=EMCY_HISTORY)
+        self._on_emcy = on_emcy
+        self._state_listeners: list[Callable[[], None]] = []
+        self.lock = threading.RLock()
+
+    @property
+    def name(self) -> str:
+        return self.config.name
+
+    @property
+    def node_id(self) -> int:
+        return self.config.node_id
+
+    @property
+    def available(self) -> bool:
+        """Process data can be trusted: booted, started, and its heartbeat is alive."""
+        return self.boot_state is BootState.OPERATIONAL and self.nmt_state == 'OPERATIONAL'
+
+    # events from the bus (Notifier thread) ---------------------------------------
+    def _on_heartbeat(self, state: int) -> None:
+        self.last_heartbeat = time.monotonic()
+        self.nmt_state = NMT_STATES.get(state, f'UNKNOWN({state})')
+        if state == 0:
+            self.bootup_seen.set()
+        self._notify()
+
+    def _on_emcy_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        event = decode_emcy(self.node_id, self.name, bytes(data), timestamp, self.family.emcy_texts)
+        self._emcy.append(event)
+        self._on_emcy(event)
+        self._notify()
+
+    def _on_polled(self, key: ObjectKey, value: int | float, timestamp: float) -> None:
+        self.process.inputs[key] = value
+        self.process.input_stamps[key] = timestamp
+        for listener in self.process._listeners:
+            listener(frozenset((key,)), timestamp)
+
+    def add_state_listener(self, listener: Callable[[], None]) -> None:
+        """Called on any heartbeat, EMCY or boot state change (from any thread)."""
+        self._state_listeners = [*self._state_listeners, listener]
+
+    def _notify(self) -> None:
+        for listener in self._state_listeners:
+            listener()
+
+    def set_boot_state(self, state: BootState, error: str = '') -> None:
+        with self.lock:
+            self.boot_state = state
+            self.boot_error = error
+        self.worker.enabled = state is BootState.OPERATIONAL
+        self._notify()
+
+    # process data, mapped or not --------------------------------------------------
+    def write(self, index: int, subindex: int, value: int | float) -> None:
+        """Set an output: into its RPDO when mapped (sent by the cycle), else by SDO."""
+        if self.process.has_output(index, subindex):
+            self.process.set(index, subindex, value)
+        else:
+            self.worker.write((index, subindex), value)
+
+    def read(self, index: int, subindex: int = 0) -> int | float | None:
+        """Latest value of an input: from its TPDO when mapped, else polled by SDO."""
+        value = self.process.get(index, subindex)
+        if value is None and not self.process.has_input(index, subindex) and self.has_object(index, subindex):
+            self.worker.poll((index, subindex))
+        return value
+
+    def has_object(self, index: int, subindex: int = 0) -> bool:
+        return od_variable(self.config.od, index, subindex) is not None
+
+    def sdo_read(self, index: int, subindex: int = 0) -> int | float | str | bytes:
+        """Blocking typed SDO read (type from the EDS); SdoError on failure."""
+        return self.sdo.read(index, subindex)[1]  # type: ignore[return-value]
+
+    def sdo_write(self, index: int, subindex: int, value: int | float) -> None:
+        self.sdo.write(index, subindex, value)
+
+    def add_input_listener(self, listener: Callable[[frozenset[ObjectKey], float], None]) -> None:
+        self.process.add_input_listener(listener)
+
+    def stamp(self, index: int, subindex: int = 0) -> float:
+        return self.process.input_stamps.get((index, subindex), 0.0)
+
+    def emcy_history(self) -> tuple[EmcyEvent, ...]:
+        return tuple(self._emcy)
+
+    def snapshot(self) -> NodeSnapshot:
+        with self.lock:
+            age = None if self.last_heartbeat is None else time.monotonic() - self.last_heartbeat
+            return NodeSnapshot(
+                name=self.name, node_id=self.node_id, family=self.config.family,
+                boot_state=self.boot_state, nmt_state=self.nmt_state, available=self.available,
+                heartbeat_age=age, boot_attempts=self.boot_attempts, boot_error=self.boot_error,
+                sdo_errors=self.sdo.errors, last_sdo_error=self.sdo.last_error,
+                pdo_errors=self.process.rx_errors, last_pdo_error=self.process.last_rx_error,
+                emcy=tuple(self._emcy))
+
+    def close(self) -> None:
+        self.worker.stop()
