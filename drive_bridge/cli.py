@@ -7,9 +7,12 @@ import sys
 
 from drive_bridge.resources import shipped_config
 
+DEMO_ROS_ARGS = ['--ros-args', '-p', 'auto_enable:=true']
+
 
 def bridge_main(argv: list[str] | None = None) -> None:
-    """``bridge [CONFIG] [--ros-args ...]``: run the bus node; no CONFIG runs the demo."""
+    """``bridge [CONFIG] [--ros-args ...]``: run the bus node; no CONFIG runs the demo
+    (simulated drives on a virtual bus, enabled once booted)."""
     args = sys.argv[1:] if argv is None else argv
     ros_args = args[args.index('--ros-args'):] if '--ros-args' in args else []
     own = args[:len(args) - len(ros_args)]
@@ -18,9 +21,10 @@ def bridge_main(argv: list[str] | None = None) -> None:
                         help='bus configuration YAML (default: the shipped demo on a virtual bus)')
     options = parser.parse_args(own)
     config = options.config
-    if not config and not any('config:=' in a for a in ros_args):
+    if not config and not any(a.startswith(('config:=', 'config_yaml:=')) for a in ros_args):
         config = str(shipped_config('demo.yaml'))
+        ros_args = [*DEMO_ROS_ARGS, *ros_args]
         # The demo must keep DDS on loopback unless the user chose otherwise.
         os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     from drive_bridge.ros.node import run  # imports rclpy: only after the environment is set
-    run(config, ['bridge', *ros_args])
+    raise SystemExit(run(config, ['bridge', *ros_args]))

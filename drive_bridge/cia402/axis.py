@@ -33,6 +33,9 @@ HOLD_COMMAND = {
 }
 
 
+PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
+
+
 class NodeIo(Protocol):
     """What an axis needs from its node (implemented by master.node.NodeRuntime)."""
 
@@ -124,8 +127,8 @@ class Axis:
         self._halt = False
         self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
         self._mode = config.mode
-        self._pp_new = False  # a PP target waits for its set-point handshake
-        self._pp_ack_seen = False
+        self._pp_phase = PP_IDLE  # profile position set-point handshake
+        self._pp_done = 0.0  # statusword stamp when the last handshake completed
         self._homing = False
         self._ip_enabled = False
         self._targets: dict[str, int] = {}  # device units, by target key name
@@ -201,16 +204,29 @@ class Axis:
         if state is not State.OPERATION_ENABLED:
             return 0
         mode = int(self._value('mode_display') or 0)
-        if mode == Mode.PROFILE_POSITION and self._pp_new:
-            if statusword & sm.SW_OMS_12:  # set-point acknowledged: drop bit 4
-                self._pp_new = False
-                self._pp_ack_seen = True
-                return 0
-            return sm.CW_OMS_4 | sm.CW_OMS_5  # new set-point, change immediately
+        if mode == Mode.PROFILE_POSITION and self._pp_phase:
+            return self._pp_handshake(statusword)
         if mode == Mode.HOMING and self._homing:
             return sm.CW_OMS_4
         if mode == Mode.INTERPOLATED_POSITION and self._ip_enabled:
             return sm.CW_OMS_4
+        return 0
+
+    def _pp_handshake(self, statusword: int) -> int:
+        """Profile position set-point handshake, one step per cycle. The target goes out one
+        cycle before the bit 4 edge, so a drive applying RPDOs in COB-ID order at SYNC
+        (controlword first) still latches the new target."""
+        if self._pp_phase == PP_STAGED:
+            self._pp_phase = PP_EDGE
+            return 0
+        if self._pp_phase == PP_EDGE:
+            if statusword & sm.SW_OMS_12:  # acknowledged: drop bit 4
+                self._pp_phase = PP_RELEASE
+                return 0
+            return sm.CW_OMS_4 | sm.CW_OMS_5  # new set-point, change immediately
+        if not statusword & sm.SW_OMS_12:  # the drive dropped its acknowledge: done
+            self._pp_phase = PP_IDLE
+            self._pp_done = self.node.stamp(*self.key['statusword'])
         return 0
 
     def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
@@ -221,8 +237,9 @@ class Axis:
             hold = {'target_velocity': 0, 'target_torque': 0}
             if actual is not None and mode != Mode.PROFILE_POSITION:
                 hold['target_position'] = int(actual)
-            if state is not State.OPERATION_ENABLED:
+            if state is not State.OPERATION_ENABLED:  # commands never survive a drop-out
                 self._targets.clear()
+                self._source = None
                 self._stale = False
             return hold if not self._targets else {**hold, **self._targets}
         if self._source is not None:
@@ -356,7 +373,7 @@ class Axis:
             if code != self._mode:
                 self._targets.clear()
                 self._source = None
-                self._pp_new = False
+                self._pp_phase = PP_IDLE
             self._mode = code
         wait = timeout if timeout is not None else self.timeouts.mode_switch
         self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
@@ -381,13 +398,9 @@ class Axis:
         if effort is not None and limits.max_effort is not None and abs(effort) > limits.max_effort + 1e-12:
             raise AxisError(f'{self._where()}: effort {effort:.6g} exceeds the limit {limits.max_effort:.6g}')
 
-    def command(self, position: float | None = None, velocity: float | None = None,
-                effort: float | None = None) -> None:
-        """Set targets in SI for the current mode (non-blocking; sent on the next cycle).
-
-        In profile position mode a new position starts a set-point handshake. In cyclic
-        modes commands feed the dead-man: if they stop for ``command_timeout`` the axis holds.
-        """
+    def check_command(self, position: float | None = None, velocity: float | None = None,
+                      effort: float | None = None) -> None:
+        """Raise AxisError if this command cannot be applied now (limits, mode, state)."""
         self._check_limits(position, velocity, effort)
         mode = self._mode
         if position is not None and mode not in POSITION_MODES:
@@ -396,14 +409,35 @@ class Axis:
             raise AxisError(f'{self._where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
         if effort is not None and mode not in TORQUE_MODES and mode not in CYCLIC_MODES:
             raise AxisError(f'{self._where()}: an effort command needs a torque mode; mode is {mode_name(mode)}')
+        if not self.node.available:
+            raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
+        if self.state is not State.OPERATION_ENABLED:
+            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; enable it first')
+
+    def command(self, position: float | None = None, velocity: float | None = None,
+                effort: float | None = None) -> None:
+        """Set targets in SI for the current mode (non-blocking; sent on the next cycle).
+
+        In profile position mode a new position starts a set-point handshake. In cyclic
+        modes commands feed the dead-man: if they stop for ``command_timeout`` the axis holds.
+        """
+        self.check_command(position, velocity, effort)
+        mode = self._mode
         with self._cond:
+            self._source = None
             self._apply_setpoint(Setpoint(position, velocity if mode in VELOCITY_MODES else None,
                                           effort if mode in TORQUE_MODES else None))
             if mode == Mode.PROFILE_POSITION and position is not None:
-                self._pp_new = True
-                self._pp_ack_seen = False
+                self._pp_phase = PP_STAGED
             if mode not in CYCLIC_MODES:
                 self._last_command = 0.0  # profile modes keep their target: no dead-man
+
+    def commanded_position(self) -> float:
+        """SI position the drive is commanded to now (last target written), else the actual."""
+        target = self._written.get(self.key['target_position'])
+        if target is None or self.state is not State.OPERATION_ENABLED:
+            target = self._value('position')
+        return self.config.scaling.position_to_si(target) if target is not None else math.nan
 
     def set_setpoint_source(self, source: SetpointSource | None) -> None:
         """A function sampled each cycle (trajectory streaming); None stops sampling."""
@@ -459,10 +493,11 @@ class Axis:
                 self.node.sdo_write(obj.for_axis(index, slot), subindex, convert(value))
 
     def wait_target_reached(self, timeout: float) -> None:
-        """Wait for statusword bit 10 after a PP set-point was acknowledged."""
+        """Wait for statusword bit 10 received after the PP set-point handshake completed."""
         def reached() -> bool:
             statusword = int(self._value('statusword') or 0)
-            return not self._pp_new and bool(statusword & sm.SW_TARGET_REACHED)
+            return (self._pp_phase == PP_IDLE and bool(statusword & sm.SW_TARGET_REACHED)
+                    and self.node.stamp(*self.key['statusword']) > self._pp_done)
         self._wait(reached, timeout, 'target reached')
 
     # -- state ------------------------------------------------------------------------------
@@ -472,6 +507,16 @@ class Axis:
             if not event.is_reset and event.slot in (None, self.config.slot):
                 return event
         return None
+
+    def feedback(self) -> tuple[bool, float, float, float, float]:
+        """(available, position, velocity, effort, stamp) in SI: the cheap path for joint states."""
+        scaling = self.config.scaling
+        position, velocity, torque = (self._value(k) for k in ('position', 'velocity', 'torque'))
+        return (self.node.available and position is not None,
+                scaling.position_to_si(position) if position is not None else math.nan,
+                scaling.velocity_to_si(velocity) if velocity is not None else math.nan,
+                scaling.effort_to_si(torque) if torque is not None else math.nan,
+                self.node.stamp(*self.key['position']))
 
     def snapshot(self) -> AxisSnapshot:
         statusword = self._value('statusword')

@@ -76,6 +76,7 @@ class Timeouts:
 
     boot: float = 2.0  # boot-up message / heartbeat after reset
     boot_retries: int = 3  # whole boot attempts before the node is reported failed (then retried slowly)
+    boot_retry_interval: float = 5.0  # between rounds of boot attempts of a failed node
     sdo: float = 0.3  # one SDO request
     sdo_retries: int = 2  # extra attempts after an SDO timeout (not after an abort)
     state_switch: float = 1.0  # one CiA 402 state transition

@@ -22,6 +22,7 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.config.model import BusConfig
 from drive_bridge.master.boot import BootError, boot_node
 from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
+from drive_bridge.master.busload import BusTraffic, TrafficCounter
 from drive_bridge.master.emcy import EmcyEvent
 from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
@@ -32,7 +33,6 @@ log = logging.getLogger('drive_bridge.master')
 
 NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
                 0x81: 'reset node', 0x82: 'reset communication'}
-BOOT_RETRY_INTERVAL = 5.0  # s between boot rounds of a node that failed all its attempts
 SUPERVISOR_PERIOD = 0.02
 UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # cycle period when the bridge sends no SYNC
 ADHOC_SDO_TIMEOUT = 0.3
@@ -47,6 +47,7 @@ class BusSnapshot:
     sync: SyncStats | None
     bus_state: str
     channel: str
+    traffic: BusTraffic
 
 
 class Master:
@@ -56,6 +57,8 @@ class Master:
         self.config = config
         self._raw_bus = bus
         self.tap = FrameTap()
+        self.traffic = TrafficCounter(config.bus.bitrate)
+        self.tap.add_listener(self.traffic)
         self.bus: TappedBus | None = None
         self.network = canopen.Network()
         self.nodes: dict[str, NodeRuntime] = {}
@@ -264,15 +267,17 @@ class Master:
             except Exception as exc:  # never let a boot thread die silently
                 error = f'node {node.node_id} ({node.name}) boot failed unexpectedly: {exc!r}'
                 continue
+            node.bootup_seen.clear()  # the boot's own boot-up; a later one is a real reboot
             node.set_boot_state(BootState.OPERATIONAL)
             self._emit(EventKind.BOOTED, Level.INFO,
                        f'node {node.node_id} ({node.name}) booted and operational '
                        f'(attempt {node.boot_attempts})', node)
             return
-        node.next_boot_time = time.monotonic() + BOOT_RETRY_INTERVAL
+        interval = node.config.timeouts.boot_retry_interval
+        node.next_boot_time = time.monotonic() + interval
         node.set_boot_state(BootState.FAILED, error)
         self._emit(EventKind.BOOT_FAILED, Level.ERROR,
-                   f'{error} (after {attempts} attempt(s); retrying in {BOOT_RETRY_INTERVAL:.0f} s)', node)
+                   f'{error} (after {attempts} attempt(s); retrying in {interval:g} s)', node)
 
     def wait_until_operational(self, timeout: float, names: list[str] | None = None) -> None:
         """Block until the given nodes (default all) are operational; TimeoutError says which are not."""
@@ -330,6 +335,6 @@ class Master:
             axes=tuple(axis.snapshot() for axis in self.axes.values()),
             sync=self.sync.stats() if self.sync is not None else None,
             bus_state=self.bus.state.name if self.bus is not None else 'CLOSED',
-            channel=str(self.config.bus.channel))
+            channel=str(self.config.bus.channel), traffic=self.traffic.traffic())
 
 

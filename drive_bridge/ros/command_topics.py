@@ -1,0 +1,132 @@
+"""Commands from planners: JointTrajectory, Float64MultiArray (forward_command_controller)
+and JointState (topic_based_ros2_control).
+
+A message is checked whole before anything is applied: one bad joint refuses the whole
+message, with the reason logged and published on ``~/command_errors``.
+"""
+from __future__ import annotations
+
+import time
+
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+from trajectory_msgs.msg import JointTrajectory
+
+from drive_bridge.cia402.axis import AxisError
+from drive_bridge.cia402.modes import POSITION_MODES, TORQUE_MODES, VELOCITY_MODES
+from drive_bridge.master.master import Master
+from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
+from drive_bridge.ros.parameters import BridgeParameters
+from drive_bridge.streaming.executor import TrajectoryExecutor
+from drive_bridge.streaming.trajectory import TrajectoryError
+
+LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
+
+
+class CommandRefused(ValueError):
+    pass
+
+
+class CommandTopics:
+    """Subscriptions for commands; they act only while ``active``."""
+
+    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor,
+                 params: BridgeParameters) -> None:
+        self.node = node
+        self.master = master
+        self.executor = executor
+        self.params = params
+        self.command_joints = list(params.command_joints) or list(master.axes)
+        self.active = False
+        self.errors = node.create_publisher(String, '~/command_errors', QoSProfile(depth=50))
+        self._last_log: dict[str, float] = {}
+        group = MutuallyExclusiveCallbackGroup()
+        node.create_subscription(JointTrajectory, '~/joint_trajectory', self.on_trajectory, 10,
+                                 callback_group=group)
+        node.create_subscription(Float64MultiArray, '~/commands', self.on_commands, 10, callback_group=group)
+        node.create_subscription(JointState, params.joint_commands_topic, self.on_joint_commands,
+                                 qos_profile_sensor_data, callback_group=group)
+        unknown = [j for j in self.command_joints if j not in master.axes]
+        if unknown:
+            raise ValueError(f'parameter command_joints names unknown joint(s) {", ".join(unknown)}')
+
+    def refuse(self, topic: str, reason: str) -> None:
+        text = f'{topic}: refused: {reason}'
+        self.errors.publish(String(data=text))
+        now = time.monotonic()
+        if now - self._last_log.get(topic, 0.0) >= LOG_INTERVAL:
+            self._last_log[topic] = now
+            self.node.get_logger().warning(text)
+
+    def _inactive(self, topic: str) -> bool:
+        if not self.active:
+            self.refuse(topic, 'the bridge is not active (deactivated or not configured)')
+        return not self.active
+
+    # -- JointTrajectory -----------------------------------------------------------------------
+    def on_trajectory(self, msg: JointTrajectory) -> None:
+        topic = '~/joint_trajectory'
+        if self._inactive(topic):
+            return
+        try:
+            handle = self.executor.submit(trajectory_from_msg(msg), topic)
+        except TrajectoryError as exc:
+            self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
+            return
+        if handle is not None:
+            self.node.get_logger().info(
+                f'trajectory {handle.id}: {len(msg.points)} point(s) for {", ".join(handle.joints)}, '
+                f'{handle.end - handle.start:.3f} s')
+
+    # -- direct commands -------------------------------------------------------------------------
+    def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:
+        """Check every joint's command, then apply all (or none)."""
+        try:
+            for joint, command in commands.items():
+                self.master.axes[joint].check_command(**command)
+        except AxisError as exc:
+            self.refuse(topic, str(exc))
+            return
+        self.executor.stop(list(commands), f'replaced by a command on {topic}')
+        for joint, command in commands.items():
+            self.master.axes[joint].command(**command)
+
+    def on_commands(self, msg: Float64MultiArray) -> None:
+        topic = '~/commands'
+        if self._inactive(topic):
+            return
+        values = list(msg.data)
+        if len(values) != len(self.command_joints):
+            self.refuse(topic, f'{len(values)} value(s) for {len(self.command_joints)} joint(s) '
+                               f'({", ".join(self.command_joints)})')
+            return
+        interface = self.params.command_interface
+        self._apply(topic, {joint: {interface: value} for joint, value in zip(self.command_joints, values)})
+
+    def on_joint_commands(self, msg: JointState) -> None:
+        """Per joint, the field matching its mode: position, velocity or effort (NaN = none)."""
+        topic = self.params.joint_commands_topic
+        if self._inactive(topic):
+            return
+        unknown = [n for n in msg.name if n not in self.master.axes]
+        if unknown:
+            self.refuse(topic, f'unknown joint(s) {", ".join(unknown)}')
+            return
+        for field in ('position', 'velocity', 'effort'):
+            values = getattr(msg, field)
+            if values and len(values) != len(msg.name):
+                self.refuse(topic, f'{len(values)} {field} value(s) for {len(msg.name)} name(s)')
+                return
+        commands: dict[str, dict[str, float | None]] = {}
+        for i, joint in enumerate(msg.name):
+            mode = self.master.axes[joint].mode
+            field = ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
+                     else 'effort' if mode in TORQUE_MODES else None)
+            value = finite_or_none(getattr(msg, field), i) if field else None
+            if value is not None:
+                commands[joint] = {field: value}
+        if commands:
+            self._apply(topic, commands)

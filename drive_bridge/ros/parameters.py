@@ -1,0 +1,103 @@
+"""The bus node's ROS parameters: declared with descriptions, validated together."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+
+COMMAND_INTERFACES = ('position', 'velocity', 'effort')
+RELIABILITIES = ('reliable', 'best_effort')
+
+
+@dataclass(frozen=True)
+class BridgeParameters:
+    config: str = ''
+    config_yaml: str = ''
+    simulate: bool = False
+    sync_period: float = 0.0
+    publish_rate: float = 0.0
+    joint_states_topic: str = '/joint_states'
+    state_rate: float = 10.0
+    diagnostics_period: float = 1.0
+    publish_frames: bool = True
+    qos_depth: int = 10
+    qos_reliability: str = 'reliable'
+    command_interface: str = 'position'
+    command_joints: tuple[str, ...] = ()
+    joint_commands_topic: str = '~/joint_commands'
+    auto_enable: bool = False
+
+
+DESCRIPTIONS = {
+    'config': 'path of the bus configuration YAML (empty: use config_yaml)',
+    'config_yaml': 'the bus configuration as YAML text, instead of a file',
+    'simulate': 'start simulated drives for every node (virtual bus only)',
+    'sync_period': 'SYNC period in seconds; 0 = as in the bus configuration',
+    'publish_rate': 'joint state rate in Hz; 0 = every SYNC cycle',
+    'joint_states_topic': 'topic of the stamped sensor_msgs/JointState of all joints',
+    'state_rate': 'rate in Hz of ~/axis_states (also sent on every state change)',
+    'diagnostics_period': 'seconds between /diagnostics messages',
+    'publish_frames': 'publish every CAN frame on ~/can_frames',
+    'qos_depth': 'history depth of the state topics',
+    'qos_reliability': 'reliable or best_effort, for the state topics',
+    'command_interface': 'what ~/commands carries: position, velocity or effort',
+    'command_joints': 'joint order of ~/commands (empty: all joints in configuration order)',
+    'joint_commands_topic': 'sensor_msgs/JointState command topic (topic_based_ros2_control)',
+    'auto_enable': 'enable every axis once its node is operational',
+}
+
+
+class ParameterError(ValueError):
+    """One or more parameters are invalid; the message lists each."""
+
+
+def declare(node: Node) -> BridgeParameters:
+    """Declare every parameter and return them validated (ParameterError lists all problems)."""
+    values = {}
+    problems = []
+    for f in fields(BridgeParameters):
+        default = f.default
+        declared_default = list(default) if isinstance(default, tuple) else default
+        descriptor = ParameterDescriptor(description=DESCRIPTIONS[f.name])
+        if isinstance(default, tuple):
+            from rcl_interfaces.msg import ParameterType
+            descriptor.type = ParameterType.PARAMETER_STRING_ARRAY
+        try:
+            value = node.declare_parameter(f.name, declared_default, descriptor).value
+        except ParameterException as exc:
+            problems.append(f'parameter {f.name}: {exc}')
+            continue
+        if isinstance(default, tuple):
+            value = tuple(value or ())
+        elif isinstance(default, float) and isinstance(value, int):
+            value = float(value)
+        values[f.name] = value
+    if problems:
+        raise ParameterError('; '.join(problems))
+    params = BridgeParameters(**values)
+    problems = validate(params)
+    if problems:
+        raise ParameterError('; '.join(problems))
+    return params
+
+
+def validate(params: BridgeParameters) -> list[str]:
+    problems = []
+    if params.config and params.config_yaml:
+        problems.append('parameters config and config_yaml are exclusive: give one')
+    for name in ('sync_period', 'publish_rate', 'state_rate'):
+        if getattr(params, name) < 0:
+            problems.append(f'parameter {name} must be >= 0, got {getattr(params, name)}')
+    if params.diagnostics_period <= 0:
+        problems.append(f'parameter diagnostics_period must be > 0, got {params.diagnostics_period}')
+    if params.qos_depth < 1:
+        problems.append(f'parameter qos_depth must be >= 1, got {params.qos_depth}')
+    if params.qos_reliability not in RELIABILITIES:
+        problems.append(f'parameter qos_reliability must be one of {", ".join(RELIABILITIES)}, '
+                        f'got {params.qos_reliability!r}')
+    if params.command_interface not in COMMAND_INTERFACES:
+        problems.append(f'parameter command_interface must be one of {", ".join(COMMAND_INTERFACES)}, '
+                        f'got {params.command_interface!r}')
+    return problems

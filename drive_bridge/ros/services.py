@@ -1,0 +1,188 @@
+"""Services: typed SDO, NMT, and per-joint axis control.
+
+Handlers wait on the bus (SDO round trips, state transitions), so they run in a thread
+pool and the executor stays free: each handler is a coroutine awaiting the pool's
+result, in a callback group of its own (the default group would stall the node's timers
+while a handler waits).
+"""
+from __future__ import annotations
+
+import concurrent.futures
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import rclpy.task
+from drive_bridge_interfaces.msg import SdoValue
+from drive_bridge_interfaces.srv import AxisCommand, NmtCommand, SdoRead, SdoWrite, SetMode
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.node import Node
+
+from drive_bridge.cia402.axis import Axis, AxisError
+from drive_bridge.cia402.modes import parse_mode
+from drive_bridge.master.master import NMT_COMMANDS, Master
+from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
+from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
+from drive_bridge.streaming.executor import TrajectoryExecutor
+
+T = TypeVar('T')
+AxisAction = Callable[[Axis, float | None], str | None]
+
+
+class BridgeServices:
+    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor) -> None:
+        self.node = node
+        self.master = master
+        self.executor = executor
+        self.pool = concurrent.futures.ThreadPoolExecutor(max_workers=8, thread_name_prefix='drive_bridge-srv')
+        # per-joint work of one request fans out here, never into self.pool (no nested waits)
+        self.joint_pool = concurrent.futures.ThreadPoolExecutor(max_workers=8, thread_name_prefix='drive_bridge-axis')
+        self.active = True
+        group = ReentrantCallbackGroup()
+        node.create_service(SdoRead, '~/sdo_read', self.sdo_read, callback_group=group)
+        node.create_service(SdoWrite, '~/sdo_write', self.sdo_write, callback_group=group)
+        node.create_service(NmtCommand, '~/nmt', self.nmt, callback_group=group)
+        actions: dict[str, AxisAction] = {
+            'enable': self._enable, 'disable': lambda a, t: a.disable(t),
+            'halt': self._halt, 'resume': lambda a, t: a.halt(False),
+            'quick_stop': self._quick_stop, 'fault_reset': lambda a, t: a.reset_fault(t),
+            'recover': self._recover, 'home': lambda a, t: a.home(t),
+        }
+        for name, action in actions.items():
+            node.create_service(AxisCommand, f'~/{name}', self._axis_handler(name, action), callback_group=group)
+        node.create_service(SetMode, '~/set_mode', self.set_mode, callback_group=group)
+
+    async def _in_pool(self, work: Callable[[], T]) -> T:
+        """Run blocking work in the pool and await it without blocking the executor."""
+        future: rclpy.task.Future = rclpy.task.Future()
+
+        def run() -> None:
+            try:
+                future.set_result(work())
+            except BaseException as exc:  # delivered to the awaiting handler
+                future.set_exception(exc)
+            executor = self.node.executor
+            if executor is not None:
+                executor.wake()
+        self.pool.submit(run)
+        return await future
+
+    # -- SDO and NMT -------------------------------------------------------------------------
+    def _resolve_type(self, node_id: int, index: int, subindex: int, data_type: int) -> int:
+        if data_type != SdoValue.AUTO:
+            return data_type
+        node = self.master.node_by_id(node_id)
+        if node is None:
+            raise SdoError(ObjectAddress(node_id, index, subindex),
+                           'node is not in the bus configuration, so its EDS is unknown: give data_type')
+        return node.sdo.od_type(index, subindex)
+
+    async def sdo_read(self, request: SdoRead.Request, response: SdoRead.Response) -> SdoRead.Response:
+        def work() -> None:
+            data_type = self._resolve_type(request.node_id, request.index, request.subindex, request.data_type)
+            used, value, raw = self.master.sdo_read(request.node_id, request.index, request.subindex, data_type)
+            response.value = python_to_sdo_value(used, value, raw)
+            response.message = (f'node {request.node_id} 0x{request.index:04X}:{request.subindex:02X} = '
+                                f'{value!r} ({type_name(used)})')
+        return await self._sdo(work, response)
+
+    async def sdo_write(self, request: SdoWrite.Request, response: SdoWrite.Response) -> SdoWrite.Response:
+        def work() -> None:
+            data_type = self._resolve_type(request.node_id, request.index, request.subindex,
+                                           request.value.data_type)
+            value = sdo_value_to_python(request.value, data_type)
+            self.master.sdo_write(request.node_id, request.index, request.subindex, value, data_type)
+            response.message = (f'node {request.node_id} 0x{request.index:04X}:{request.subindex:02X} := '
+                                f'{value!r} ({type_name(data_type)})')
+        return await self._sdo(work, response)
+
+    async def _sdo(self, work: Callable[[], None], response: Any) -> Any:
+        try:
+            await self._in_pool(work)
+            response.success = True
+        except SdoError as exc:
+            response.success, response.abort_code, response.message = False, exc.abort_code, str(exc)
+        except ValueError as exc:
+            response.success, response.message = False, str(exc)
+        return response
+
+    async def nmt(self, request: NmtCommand.Request, response: NmtCommand.Response) -> NmtCommand.Response:
+        try:
+            self.master.nmt(request.command, request.node_id)
+        except ValueError as exc:
+            response.success, response.message = False, str(exc)
+            return response
+        target = 'all nodes' if request.node_id == 0 else f'node {request.node_id}'
+        response.success = True
+        response.message = f'NMT {NMT_COMMANDS[request.command]} sent to {target}'
+        return response
+
+    # -- axes -------------------------------------------------------------------------------
+    def _joints(self, names: list[str]) -> list[str]:
+        unknown = [n for n in names if n not in self.master.axes]
+        if unknown:
+            raise AxisError(f'unknown joint(s) {", ".join(unknown)}; this bus has {", ".join(self.master.axes)}')
+        return list(names) or list(self.master.axes)
+
+    def _enable(self, axis: Axis, timeout: float | None) -> None:
+        if not self.active:
+            raise AxisError('the bridge is deactivated: activate it before enabling axes')
+        axis.enable(timeout)
+
+    def _halt(self, axis: Axis, timeout: float | None) -> None:
+        self.executor.stop([axis.joint], 'halted')
+        axis.halt(True)
+
+    def _quick_stop(self, axis: Axis, timeout: float | None) -> None:
+        self.executor.stop([axis.joint], 'quick stop')
+        axis.quick_stop(timeout)
+
+    def _recover(self, axis: Axis, timeout: float | None) -> None:
+        axis.reset_fault(timeout)
+        self._enable(axis, timeout)
+
+    def _axis_handler(self, name: str, action: AxisAction):
+        async def handle(request: AxisCommand.Request, response: AxisCommand.Response) -> AxisCommand.Response:
+            timeout = request.timeout if request.timeout > 0 else None
+            return await self._for_joints(name, list(request.joints),
+                                          lambda axis: action(axis, timeout), response)
+        return handle
+
+    async def set_mode(self, request: SetMode.Request, response: SetMode.Response) -> SetMode.Response:
+        try:
+            mode = parse_mode(request.mode)
+        except ValueError as exc:
+            response.success, response.message = False, str(exc)
+            return response
+        timeout = request.timeout if request.timeout > 0 else None
+
+        def change(axis: Axis) -> None:
+            self.executor.stop([axis.joint], 'mode change')
+            axis.set_mode(mode, timeout)
+        return await self._for_joints(f'set_mode {request.mode}', list(request.joints), change, response)
+
+    async def _for_joints(self, name: str, joints: list[str], action: Callable[[Axis], object],
+                          response: Any) -> Any:
+        """Run an action on each joint in parallel; report every joint's outcome."""
+        try:
+            names = self._joints(joints)
+        except AxisError as exc:
+            response.success, response.message, response.failed = False, str(exc), list(joints)
+            return response
+
+        def one(joint: str) -> str | None:
+            try:
+                action(self.master.axes[joint])
+            except (AxisError, SdoError) as exc:
+                return str(exc)
+            return None
+
+        def all_joints() -> dict[str, str | None]:
+            return dict(zip(names, self.joint_pool.map(one, names))) if len(names) > 1 else {names[0]: one(names[0])}
+        outcome = await self._in_pool(all_joints)
+        failed = [j for j, error in outcome.items() if error]
+        response.success = not failed
+        response.failed = failed
+        response.message = '; '.join(error for error in outcome.values() if error) if failed else \
+            f'{name}: done for {", ".join(names)}'
+        return response
+

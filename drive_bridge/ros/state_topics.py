@@ -1,0 +1,141 @@
+"""State the node publishes: joint states, axis states, EMCY, CAN frames, diagnostics.
+
+Joint states are published from the master's cycle thread right after SYNC, EMCY and
+frames from the CAN threads: rclpy's publish is thread-safe and cheap (about 8 µs with
+no subscriber, docs/python-ecosystem.md §6). Frame messages are only built while
+someone subscribes.
+"""
+from __future__ import annotations
+
+import time
+
+import can
+from diagnostic_msgs.msg import DiagnosticArray
+from drive_bridge_interfaces.msg import AxisStates, CanFrame, Emcy
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.master.master import Master
+from drive_bridge.ros.conversions import axis_state_msg, emcy_msg
+from drive_bridge.ros.diagnostics import diagnostics
+from drive_bridge.ros.frames import stamp_from_seconds, to_frame_msg
+from drive_bridge.ros.parameters import BridgeParameters
+
+
+def state_qos(params: BridgeParameters) -> QoSProfile:
+    reliability = (ReliabilityPolicy.BEST_EFFORT if params.qos_reliability == 'best_effort'
+                   else ReliabilityPolicy.RELIABLE)
+    return QoSProfile(depth=params.qos_depth, reliability=reliability)
+
+
+class StateTopics:
+    """Publishers of one bus node; :meth:`attach` starts feeding them from the master."""
+
+    def __init__(self, node: Node, master: Master, params: BridgeParameters) -> None:
+        self.node = node
+        self.master = master
+        self.params = params
+        qos = state_qos(params)
+        self.joint_states = node.create_publisher(JointState, params.joint_states_topic, qos)
+        self.axis_states = node.create_publisher(AxisStates, '~/axis_states', qos)
+        self.emcy = node.create_publisher(Emcy, '~/emcy', QoSProfile(depth=100))
+        self.frames = node.create_publisher(CanFrame, '~/can_frames', QoSProfile(depth=1000))
+        self.diagnostics = node.create_publisher(DiagnosticArray, '/diagnostics', QoSProfile(depth=10))
+        self.joints = list(master.axes)
+        self._channel = str(master.config.bus.channel)
+        self._joint_of_node = {n.node_id: [a.joint for a in n.config.axes] for n in master.nodes.values()}
+        self._min_interval = 1.0 / params.publish_rate if params.publish_rate > 0 else 0.0
+        self._last_joint_states = 0.0
+        self._frame_subscribers = 0
+        self._last_states: tuple = ()
+        self._unavailable: set[str] = set()
+        self._seen: set[str] = set()  # joints published at least once
+        self.active = False
+
+    def attach(self) -> None:
+        """Register with the master and start the timers."""
+        self.master.add_cycle_listener(self.on_cycle)
+        self.master.add_emcy_listener(self.on_emcy)
+        if self.params.publish_frames:
+            self.master.add_frame_listener(self.on_frame)
+        self.node.create_timer(0.5, self._count_frame_subscribers)
+        if self.params.state_rate > 0:
+            self.node.create_timer(1.0 / self.params.state_rate, lambda: self.publish_axis_states(force=True))
+        self.node.create_timer(self.params.diagnostics_period, self.publish_diagnostics)
+
+    # -- joint states (cycle thread) ---------------------------------------------------------
+    def on_cycle(self, _cycle: int) -> None:
+        if not self.active:
+            return
+        now = time.monotonic()
+        if self._min_interval and now - self._last_joint_states < self._min_interval:
+            return
+        self._last_joint_states = now
+        self.publish_joint_states()
+        self.publish_axis_states(force=False)
+
+    def publish_joint_states(self) -> None:
+        """Available joints only: a joint whose drive is lost is left out (and reported on
+        ~/axis_states and /diagnostics) instead of repeating a stale value."""
+        msg = JointState()
+        newest = 0.0
+        unavailable = set()
+        for joint in self.joints:
+            available, position, velocity, effort, stamp = self.master.axes[joint].feedback()
+            if not available:
+                unavailable.add(joint)
+                continue
+            msg.name.append(joint)
+            msg.position.append(position)
+            msg.velocity.append(velocity)
+            msg.effort.append(effort)
+            newest = max(newest, stamp)
+        lost = (unavailable - self._unavailable) & self._seen
+        if lost:
+            self.node.get_logger().error(
+                f'joint(s) {", ".join(sorted(lost))} unavailable: left out of '
+                f'{self.params.joint_states_topic} until their drive is back')
+        self._unavailable = unavailable
+        self._seen.update(msg.name)
+        if not msg.name:
+            return
+        msg.header.stamp = stamp_from_seconds(newest) if newest else self.node.get_clock().now().to_msg()
+        self.joint_states.publish(msg)
+
+    def publish_axis_states(self, force: bool) -> None:
+        """On every change of state, mode or flags; and at state_rate when forced."""
+        if not self.active:
+            return
+        snapshots = [self.master.axes[j].snapshot() for j in self.joints]
+        key = tuple((s.available, s.statusword, s.mode, s.controlword, s.command_stale) for s in snapshots)
+        if not force and key == self._last_states:
+            return
+        self._last_states = key
+        msg = AxisStates()
+        msg.header.stamp = self.node.get_clock().now().to_msg()
+        msg.axes = [axis_state_msg(s) for s in snapshots]
+        self.axis_states.publish(msg)
+
+    # -- EMCY and frames (CAN threads) -----------------------------------------------------------
+    def on_emcy(self, event: EmcyEvent) -> None:
+        joints = self._joint_of_node.get(event.node_id, [])
+        joint = joints[event.slot] if event.slot is not None and event.slot < len(joints) else \
+            (joints[0] if len(joints) == 1 else '')
+        self.emcy.publish(emcy_msg(event, joint))
+        level = self.node.get_logger().info if event.is_reset else self.node.get_logger().error
+        level(str(event))
+
+    def _count_frame_subscribers(self) -> None:
+        self._frame_subscribers = self.frames.get_subscription_count()
+
+    def on_frame(self, msg: can.Message) -> None:
+        if self._frame_subscribers:
+            self.frames.publish(to_frame_msg(msg, self._channel))
+
+    # -- diagnostics (executor) ------------------------------------------------------------------
+    def publish_diagnostics(self) -> None:
+        array = diagnostics(self.master.snapshot(), self.node.get_fully_qualified_name())
+        array.header.stamp = self.node.get_clock().now().to_msg()
+        self.diagnostics.publish(array)

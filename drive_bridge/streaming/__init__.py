@@ -1,0 +1,1 @@
+"""Trajectories on SYNC: the trajectory model and sampling (cyclic setpoints), later IP and PVT."""

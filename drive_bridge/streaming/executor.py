@@ -1,0 +1,174 @@
+"""Executing trajectories on the axes of one bus, sampled each cycle (CSP/CSV).
+
+Per joint, the spline in force at a time is the newest one whose start is not later:
+a replacement takes over at its own start time, and its lead-in starts from the
+replaced trajectory's desired state at that time (a smooth splice). Joints of the bus
+that a trajectory leaves out hold their desired position from its start
+(joint_trajectory_controller's partial-goal rule).
+"""
+from __future__ import annotations
+
+import itertools
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+
+from drive_bridge.cia402.axis import Axis, Setpoint
+from drive_bridge.cia402.modes import Mode, mode_name
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.streaming.trajectory import (JointSample, JointSpline, Trajectory, TrajectoryError,
+                                               joint_splines, validate)
+
+STREAMABLE_MODES = {Mode.CYCLIC_SYNC_POSITION: 'position', Mode.CYCLIC_SYNC_VELOCITY: 'velocity'}
+KEEP_OLD_SPLINES = 2.0  # s a replaced spline is kept after its successor starts (for desired())
+
+
+@dataclass
+class TrajectoryHandle:
+    """A submitted trajectory: its time span and how it ended."""
+
+    id: int
+    joints: tuple[str, ...]
+    start: float
+    end: float
+    state: str = 'pending'  # pending, active, succeeded, superseded, aborted, cancelled
+    reason: str = ''
+    _done: threading.Event = field(default_factory=threading.Event, repr=False)
+
+    def finish(self, state: str, reason: str = '') -> None:
+        if not self._done.is_set():
+            self.state, self.reason = state, reason
+            self._done.set()
+
+    @property
+    def finished(self) -> bool:
+        return self._done.is_set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        return self._done.wait(timeout)
+
+
+class TrajectoryExecutor:
+    """Accepts trajectories for the bus's joints and feeds each axis one setpoint per cycle."""
+
+    def __init__(self, axes: Mapping[str, Axis], clock: Callable[[], float] = time.time) -> None:
+        self.axes = dict(axes)
+        self.clock = clock
+        self._lock = threading.Lock()
+        self._splines: dict[str, list[JointSpline]] = {j: [] for j in self.axes}
+        self._owner: dict[str, TrajectoryHandle | None] = {j: None for j in self.axes}
+        self._handles: list[TrajectoryHandle] = []
+        self._ids = itertools.count(1)
+
+    # -- submitting -----------------------------------------------------------------------
+    def _check_axes(self, joints: Iterable[str], source: str) -> None:
+        for joint in joints:
+            axis = self.axes[joint]
+            snapshot = axis.snapshot()
+            if not snapshot.available:
+                raise TrajectoryError(f'{source}: joint {joint} is not available (node {snapshot.node_id} '
+                                      f'NMT {snapshot.nmt_state})')
+            if snapshot.state is not State.OPERATION_ENABLED:
+                raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state.label}, not operation '
+                                      'enabled; enable it first')
+            if axis.mode not in STREAMABLE_MODES:
+                raise TrajectoryError(f'{source}: joint {joint} is in mode {mode_name(axis.mode)}; '
+                                      f'trajectories need csp or csv (set_mode)')
+
+    def desired(self, joint: str, t: float) -> JointSample | None:
+        """The desired state of a joint at time t, None when no trajectory ever ran."""
+        splines = self._splines[joint]
+        for spline in reversed(splines):
+            if spline.start_time <= t:
+                return spline.sample(t)
+        return splines[0].sample(t) if splines else None
+
+    def _start_state(self, joint: str, t: float) -> JointSample:
+        """Where a new trajectory of a joint starts: the running one's desired state at
+        its start (smooth splice), else the position the drive is commanded to now."""
+        desired = self.desired(joint, t)
+        if desired is not None and self._owner[joint] is not None:
+            return desired
+        return JointSample(self.axes[joint].commanded_position(), 0.0, 0.0)
+
+    def submit(self, trajectory: Trajectory, source: str = 'trajectory') -> TrajectoryHandle | None:
+        """Validate and schedule a trajectory; an empty one stops its joints (all if none
+        are named) and returns None. TrajectoryError says why a trajectory was refused."""
+        now = self.clock()
+        if not trajectory.points:
+            self.stop(trajectory.joints or tuple(self.axes), 'stopped by an empty trajectory')
+            return None
+        validate(trajectory, {j: a.config.limits for j, a in self.axes.items()}, source)
+        start = trajectory.start if trajectory.start else now
+        end = start + trajectory.points[-1].time
+        if end < now:
+            raise TrajectoryError(f'{source}: ends {now - end:.3f} s in the past (header.stamp too old)')
+        held = tuple(j for j in self.axes if j not in trajectory.joints and self._owner[j] is not None)
+        self._check_axes((*trajectory.joints, *held), source)
+        with self._lock:
+            states = {j: self._start_state(j, start) for j in (*trajectory.joints, *held)}
+            splines = joint_splines(trajectory, start, states)
+            for joint in held:  # partial goal: the other joints hold their desired position
+                splines[joint] = JointSpline(start, JointSample(states[joint].position, 0, 0), [], [], 1)
+            handle = TrajectoryHandle(next(self._ids), trajectory.joints, start, end)
+            for joint, spline in splines.items():
+                previous = self._owner[joint]
+                if previous is not None:
+                    previous.finish('superseded', f'replaced by trajectory {handle.id}')
+                self._owner[joint] = handle
+                kept = [s for s in self._splines[joint] if s.start_time < start]
+                self._splines[joint] = [*kept[-1:], spline]
+                self.axes[joint].set_setpoint_source(self._source(joint))
+            self._handles.append(handle)
+        return handle
+
+    def _source(self, joint: str) -> Callable[[float], Setpoint | None]:
+        axis = self.axes[joint]
+
+        def sample(t: float) -> Setpoint | None:
+            desired = self.desired(joint, t)
+            if desired is None:
+                return None
+            if axis.mode == Mode.CYCLIC_SYNC_VELOCITY:
+                return Setpoint(velocity=desired.velocity)
+            return Setpoint(position=desired.position)
+        return sample
+
+    # -- stopping and supervision -------------------------------------------------------------
+    def stop(self, joints: Iterable[str], reason: str, state: str = 'cancelled') -> None:
+        """Hold the joints at their desired position now; their trajectories end with ``state``."""
+        now = self.clock()
+        with self._lock:
+            for joint in joints:
+                if joint not in self.axes:
+                    continue
+                handle = self._owner[joint]
+                if handle is not None:
+                    handle.finish(state, reason)
+                desired = self.desired(joint, now)
+                if desired is not None:
+                    hold = JointSpline(now, JointSample(desired.position, 0, 0), [], [], 1)
+                    self._splines[joint] = [hold]
+                self._owner[joint] = None
+
+    def check(self, _cycle: int = 0) -> None:
+        """Cycle hook: finish trajectories whose time is over, abort those whose axes dropped out."""
+        now = self.clock()
+        for handle in [h for h in self._handles if not h.finished]:
+            if handle.state == 'pending' and now >= handle.start:
+                handle.state = 'active'
+            for joint in handle.joints:
+                snapshot = self.axes[joint].snapshot()
+                if snapshot.state is not State.OPERATION_ENABLED or not snapshot.available:
+                    emcy = f'; {snapshot.last_emcy}' if snapshot.last_emcy else ''
+                    reason = f'joint {joint} left operation enabled ({snapshot.state.label}){emcy}'
+                    self.stop(handle.joints, reason, 'aborted')
+                    break
+            else:
+                if now >= handle.end:
+                    handle.finish('succeeded')
+        self._handles = [h for h in self._handles if not h.finished]
+
+    def active(self) -> list[TrajectoryHandle]:
+        return [h for h in self._handles if not h.finished]
