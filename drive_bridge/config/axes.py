@@ -1,0 +1,230 @@
+"""The axes of one node, from our ``axes`` list or from ros2_canopen's channel keys.
+
+The object dictionary is not needed here (the number of axes picks the family's
+EDS); :func:`check_axis_objects` runs once the OD is loaded.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from canopen import ObjectDictionary
+
+from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia402.modes import POSITION_MODES, SHORT_NAMES, TORQUE_MODES, VELOCITY_MODES, mode_name, parse_mode
+from drive_bridge.config import keys
+from drive_bridge.config.errors import Issues, Loc
+from drive_bridge.config.model import AxisConfig, AxisLimits, HomingConfig, JointType
+from drive_bridge.config.odcheck import hex_index, known_name
+from drive_bridge.config.reader import Section, describe, to_str
+from drive_bridge.config.scaling import parse_scaling
+from drive_bridge.families import DriveFamily
+
+JOINT_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
+CORE_OBJECTS = (obj.CONTROLWORD, obj.STATUSWORD, obj.MODES_OF_OPERATION, obj.MODES_OF_OPERATION_DISPLAY,
+                obj.POSITION_ACTUAL)
+_MODE_KINDS: dict[str, tuple[str, frozenset[int] | None]] = {
+    'mode': ('csp', None),
+    'position_mode': ('csp', POSITION_MODES),
+    'velocity_mode': ('csv', VELOCITY_MODES),
+    'effort_mode': ('cst', TORQUE_MODES),
+}
+
+
+@dataclass(frozen=True)
+class AxisDraft:
+    """An axis and where its joint name and slot were given (for bus-wide checks)."""
+
+    axis: AxisConfig
+    loc: Loc
+    joint_loc: Loc
+    slot_loc: Loc
+
+
+def _joint(issues: Issues, value: Any, loc: Loc) -> str | None:
+    name = to_str(issues, value, loc)
+    if name is not None and not JOINT_NAME.fullmatch(name):
+        issues.error(loc, "expected a joint name (letters, digits and '_', not starting with a digit; "
+                          f"'/' between parts), got {describe(name)}")
+        return None
+    return name
+
+
+def _mode(sec: Section, key: str) -> int:
+    default, allowed = _MODE_KINDS[key]
+    fallback = int(parse_mode(default))
+    if key not in sec:
+        return fallback
+    raw = sec.get(key)
+    try:
+        code = parse_mode(raw)
+    except ValueError:
+        names = ', '.join(SHORT_NAMES.values())
+        sec.issues.error(sec.loc(key), f'expected a mode name ({names}) or a number -128..127, '
+                                       f'got {describe(raw)}')
+        return fallback
+    if allowed is not None and code >= 0 and code not in allowed:
+        names = ', '.join(mode_name(m) for m in sorted(allowed))
+        kind = key.split('_')[0]
+        shown = f'{describe(raw)} ({mode_name(code)})' if isinstance(raw, int) else f'{describe(raw)} (mode {code})'
+        sec.issues.error(sec.loc(key), f'expected a {kind} mode ({names}) or a manufacturer mode (< 0), '
+                                       f'got {shown}')
+        return fallback
+    return int(code)
+
+
+def _modes(sec: Section) -> dict[str, Any]:
+    """AxisConfig's mode keyword arguments."""
+    return {key: _mode(sec, key) for key in _MODE_KINDS}
+
+
+def _limits(sec: Section | None) -> AxisLimits:
+    if sec is None:
+        return AxisLimits()
+    sec.check_keys(keys.LIMITS)
+    low = sec.get_number('min_position')
+    high = sec.get_number('max_position')
+    if low is not None and high is not None and low >= high:
+        sec.issues.error(sec.loc('max_position'),
+                         f'expected a number > min_position ({low:g}), got {describe(sec.get("max_position"))}')
+    return AxisLimits(min_position=low, max_position=high,
+                      max_velocity=sec.get_number('max_velocity', gt=0),
+                      max_acceleration=sec.get_number('max_acceleration', gt=0),
+                      max_effort=sec.get_number('max_effort', gt=0))
+
+
+def _homing(sec: Section | None) -> HomingConfig:
+    if sec is None:
+        return HomingConfig()
+    sec.check_keys(keys.HOMING)
+    return HomingConfig(method=sec.get_int('method', lo=-128, hi=127),
+                        speed_search=sec.get_number('speed_search', gt=0),
+                        speed_zero=sec.get_number('speed_zero', gt=0),
+                        acceleration=sec.get_number('acceleration', gt=0),
+                        offset=sec.get_number('offset'))
+
+
+def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str) -> AxisDraft | None:
+    sec = Section.of(issues, value, loc, 'an axis section (a mapping with at least `joint`)')
+    if sec is None:
+        return None
+    sec.check_keys(keys.AXIS)
+    joint = _joint(issues, sec.get('joint'), sec.loc('joint')) if sec.require('joint', 'a joint name') else None
+    slot = sec.get_int('slot', position, lo=0, hi=obj.MAX_AXES - 1)
+    joint_type: JointType = sec.get_str('type', 'revolute', choices=('revolute', 'prismatic'))  # type: ignore[assignment]
+    modes = _modes(sec)
+    scaling_section = sec.section('scaling')
+    if scaling_section is not None:
+        scaling_section.check_keys(keys.SCALING)
+    scaling = parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
+    axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
+                      joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
+                      homing=_homing(sec.section('homing')), where=f'{file}: {loc.path}', **modes)
+    slot_loc = sec.loc('slot') if 'slot' in sec else loc
+    return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None
+
+
+def _channel_names(node: Section) -> list[tuple[Loc, str | None]] | None:
+    items = node.get_list('channel_names', 'a list of joint names')
+    if items is None:
+        return None
+    return [(loc, _joint(node.issues, value, loc)) for loc, value in items]
+
+
+def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str) -> list[AxisDraft]:
+    """ros2_canopen's form: one axis per channel, node-level scale and mode keys,
+    per-channel overrides in ``channels``."""
+    issues = node.issues
+    count = node.get_int('num_channels', lo=1, hi=obj.MAX_AXES)
+    names = _channel_names(node)
+    if count is not None and names is not None and len(names) != count:
+        issues.error(node.loc('channel_names'),
+                     f'expected {count} names (num_channels: {count}), got {len(names)}')
+    total = count or (len(names) if names else 1)
+    if total > obj.MAX_AXES:
+        issues.error(node.loc('channel_names'), f'expected at most {obj.MAX_AXES} channels, got {total}')
+        return []
+    overrides: list[Section | None] = [None] * total
+    for index, (loc, value) in enumerate(node.get_list('channels', 'a list of per-channel mappings') or []):
+        if index >= total:
+            issues.error(loc, f'channel {index} does not exist: the node has {total} channel(s)')
+            continue
+        overrides[index] = Section.of(issues, value, loc, 'a mapping of scale keys')
+        if overrides[index] is not None:
+            overrides[index].check_keys(keys.LINEAR_SCALING)  # type: ignore[union-attr]
+    modes = _modes(node)
+    drafts = []
+    for index in range(total):
+        joint_loc, joint = (names[index] if names and index < len(names)
+                            else (node.where, name if total == 1 else f'{name}_{index}'))
+        channel = overrides[index]
+        where = channel.where if channel is not None else node.where
+        data = {k: node.get(k) for k in keys.LINEAR_SCALING if k in node}
+        locs = {k: node.loc(k) for k in data}
+        if channel is not None:
+            data.update(channel.data)
+            locs.update({k: channel.loc(k) for k in channel.data})
+        scale_section = Section(issues, data, where, locs)
+        scaling = parse_scaling(issues, scale_section, 'revolute', where, ros_defaults)
+        if joint is None:
+            continue
+        axis = AxisConfig(joint=joint, slot=index, scaling=scaling, where=f'{file}: {where.path}', **modes)
+        drafts.append(AxisDraft(axis, where, joint_loc, where))
+    return drafts
+
+
+def _form_conflicts(node: Section, family: DriveFamily) -> bool:
+    """Reports keys of the form a node does not use; True when the node may have axes."""
+    ros_keys = [k for k in keys.ROS_AXIS_FORM if k in node]
+    if not family.has_cia402:
+        for key in (['axes'] if 'axes' in node else []) + ros_keys:
+            if node.own(key):
+                node.issues.error(node.loc(key), f"family '{family.name}' has no CiA 402 axes; remove {key}")
+            else:
+                node.issues.warn(node.loc(key), f"not used: family '{family.name}' has no CiA 402 axes")
+        return False
+    if 'axes' in node:
+        for key in ros_keys:
+            if node.own('axes') and not node.own(key):
+                node.issues.warn(node.loc(key), f'not used: the node lists its axes in {node.loc("axes").path}')
+            else:
+                node.issues.error(node.loc(key), f'cannot be combined with `axes` ({node.loc("axes").path}); '
+                                                 'give scaling and modes in each axis section instead')
+    return True
+
+
+def parse_axes(node: Section, name: str, family: DriveFamily, ros_defaults: bool, file: str) -> list[AxisDraft]:
+    """The node's axes. A CiA 402 node without `axes` or channel keys is one axis named
+    after the node (as ros2_canopen's Cia402Driver)."""
+    if not _form_conflicts(node, family):
+        return []
+    if 'axes' not in node:
+        drafts = _ros_axes(node, name, ros_defaults, file)
+    else:
+        items = node.get_list('axes', 'a list of axis sections') or []
+        drafts = [d for d in (_axis(node.issues, v, loc, i, file) for i, (loc, v) in enumerate(items)) if d]
+    seen: dict[int, AxisDraft] = {}
+    for draft in drafts:
+        slot = draft.axis.slot
+        if slot in seen:
+            first = seen[slot]
+            node.issues.error(draft.slot_loc, f'slot {slot} is already used by {first.slot_loc.path} '
+                                              f"(joint '{first.axis.joint}')")
+        else:
+            seen[slot] = draft
+    return drafts
+
+
+def check_axis_objects(issues: Issues, od: ObjectDictionary, eds_name: str, draft: AxisDraft) -> bool:
+    """The CiA 402 objects the core needs for the axis exist at its slot's offset (False: some do not)."""
+    slot = draft.axis.slot
+    missing = [obj.for_axis(index, slot) for index in CORE_OBJECTS if obj.for_axis(index, slot) not in od]
+    labels = [f'{hex_index(index)} {known_name(index)}' for index in missing]
+    if len(missing) == len(CORE_OBJECTS):
+        issues.error(draft.loc, f'none of the CiA 402 objects of axis slot {slot} are in {eds_name} '
+                                f'({", ".join(labels)}); is it a CiA 402 device, and is the slot right?')
+        return False
+    for label in labels:
+        issues.error(draft.loc, f'object {label} is not in {eds_name} (every CiA 402 axis needs it)')
+    return not missing
