@@ -41,3 +41,38 @@ def test_demo_bridge_publishes_until_sigint(ros: RosHarness) -> None:
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
+
+
+def readme_python_example() -> str:
+    text = (REPO / 'README.md').read_text()
+    start = text.index('```python\n', text.index('## The two commands')) + len('```python\n')
+    return text[start:text.index('```', start)]
+
+
+def test_readme_trajectory_example_moves_the_demo(ros: RosHarness) -> None:
+    from drive_bridge_interfaces.msg import AxisState, AxisStates
+    from sensor_msgs.msg import JointState
+    exe = Path(sys.prefix) / 'bin' / 'bridge'
+    proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        states: list[JointState] = []
+        axes: list[AxisStates] = []
+        watcher = ros.node('example_watcher')
+        watcher.create_subscription(JointState, '/joint_states', states.append, 100)
+        watcher.create_subscription(AxisStates, '/drive_bridge/axis_states', axes.append, 100)
+        wait_for(lambda: axes and len(axes[-1].axes) == 4 and all(
+            a.state == AxisState.STATE_OPERATION_ENABLED for a in axes[-1].axes), 30, 'demo axes enabled')
+        example = subprocess.run([sys.executable, '-c', readme_python_example()], env=dict(os.environ),
+                                 capture_output=True, text=True, timeout=60)
+        assert example.returncode == 0, example.stderr
+        time.sleep(2.0)
+        final = dict(zip(states[-1].name, states[-1].position))
+        assert abs(final['base_joint'] - 1.0) < 0.01 and abs(final['shoulder_joint'] - 0.5) < 0.01, final
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+

@@ -70,6 +70,12 @@ class Setpoint:
 SetpointSource = Callable[[float], Setpoint | None]
 
 
+class BufferFeeder(Protocol):
+    """Feeds a drive's interpolation buffer (PVT), called each cycle in operation enabled."""
+
+    def on_cycle(self, now: float, axis: Axis) -> None: ...
+
+
 @dataclass(frozen=True)
 class AxisSnapshot:
     """Immutable state of one axis for the ROS layer."""
@@ -107,10 +113,11 @@ class AxisSnapshot:
 class Axis:
     """A CiA 402 axis of one node slot, mapped to one joint."""
 
-    def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts) -> None:
+    def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float = 0.004) -> None:
         self.node = node
         self.config = config
         self.timeouts = timeouts
+        self.cycle_period = cycle_period  # s; also the interpolation period written to 0x60C2
         self.joint = config.joint
         slot = config.slot
         self.key = {name: (obj.for_axis(index, slot), 0) for name, index in (
@@ -121,7 +128,13 @@ class Axis:
             ('target_velocity', obj.TARGET_VELOCITY), ('target_torque', obj.TARGET_TORQUE),
             ('supported_modes', obj.SUPPORTED_DRIVE_MODES), ('homing_method', obj.HOMING_METHOD),
             ('home_offset', obj.HOME_OFFSET), ('homing_acceleration', obj.HOMING_ACCELERATION),
-            ('error_code', obj.ERROR_CODE))}
+            ('error_code', obj.ERROR_CODE), ('ip_submode', obj.INTERPOLATION_SUB_MODE))}
+        ip = (lambda index, sub: (obj.for_axis(index, slot), sub))
+        self.key.update(ip_position=ip(obj.INTERPOLATION_DATA_RECORD, 1), ip_time=ip(obj.INTERPOLATION_DATA_RECORD, 2),
+                        ip_velocity=ip(obj.INTERPOLATION_DATA_RECORD, 3),
+                        ip_units=ip(obj.INTERPOLATION_TIME_PERIOD, 1), ip_index=ip(obj.INTERPOLATION_TIME_PERIOD, 2),
+                        ip_free=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 2),
+                        ip_clear=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 6))
         self._cond = threading.Condition()
         self._target_state: State | None = None
         self._halt = False
@@ -130,7 +143,9 @@ class Axis:
         self._pp_phase = PP_IDLE  # profile position set-point handshake
         self._pp_done = 0.0  # statusword stamp when the last handshake completed
         self._homing = False
-        self._ip_enabled = False
+        self._ip_point: int | None = None  # IP linear: this cycle's 0x60C1:1, sent every cycle
+        self._feeder: BufferFeeder | None = None  # IP PVT: pushes points while the buffer has room
+        self._stop_deceleration: float | None = None
         self._targets: dict[str, int] = {}  # device units, by target key name
         self._source: SetpointSource | None = None
         self._last_command = 0.0  # monotonic time of the last streamed command
@@ -185,6 +200,11 @@ class Axis:
         for name, value in targets.items():
             self._write(name, value)
         self._write('controlword', controlword)
+        if state is State.OPERATION_ENABLED and mode == Mode.INTERPOLATED_POSITION:
+            if self._feeder is not None:
+                self._feeder.on_cycle(now, self)
+            elif self._ip_point is not None:  # every cycle, even unchanged: one write is one point
+                self.node.write(*self.key['ip_position'], self._ip_point)
 
     def _device_command(self, state: State) -> int:
         if self._fault_reset_phase == 1:
@@ -208,8 +228,8 @@ class Axis:
             return self._pp_handshake(statusword)
         if mode == Mode.HOMING and self._homing:
             return sm.CW_OMS_4
-        if mode == Mode.INTERPOLATED_POSITION and self._ip_enabled:
-            return sm.CW_OMS_4
+        if mode == Mode.INTERPOLATED_POSITION and (self._source is not None or self._feeder is not None):
+            return sm.CW_OMS_4  # interpolation enabled while a stream feeds the drive
         return 0
 
     def _pp_handshake(self, statusword: int) -> int:
@@ -240,6 +260,8 @@ class Axis:
             if state is not State.OPERATION_ENABLED:  # commands never survive a drop-out
                 self._targets.clear()
                 self._source = None
+                self._feeder = None
+                self._ip_point = None
                 self._stale = False
             return hold if not self._targets else {**hold, **self._targets}
         if self._source is not None:
@@ -258,7 +280,9 @@ class Axis:
 
     def _apply_setpoint(self, setpoint: Setpoint) -> None:
         scaling = self.config.scaling
-        if setpoint.position is not None:
+        if setpoint.position is not None and self._mode == Mode.INTERPOLATED_POSITION:
+            self._ip_point = scaling.position_to_device(setpoint.position)
+        elif setpoint.position is not None:
             self._targets['target_position'] = scaling.position_to_device(setpoint.position)
         if setpoint.velocity is not None:
             self._targets['target_velocity'] = scaling.velocity_to_device(setpoint.velocity)
@@ -369,14 +393,64 @@ class Axis:
         self._require_available()
         code = parse_mode(mode)
         self._check_supported(code)
+        if code == Mode.INTERPOLATED_POSITION:
+            self._prepare_interpolation()
         with self._cond:
             if code != self._mode:
                 self._targets.clear()
                 self._source = None
+                self._feeder = None
+                self._ip_point = None
                 self._pp_phase = PP_IDLE
             self._mode = code
         wait = timeout if timeout is not None else self.timeouts.mode_switch
         self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+
+    def _prepare_interpolation(self) -> None:
+        """Before entering IP: sub-mode (0x60C0), period = the SYNC period (0x60C2, both
+        sub-indices, in ms: the only unit many drives take), and a cleared buffer (0x60C4:6)."""
+        period_ms = self.cycle_period * 1000.0
+        writes = [('ip_submode', self.config.ip_submode)]
+        if abs(period_ms - round(period_ms)) < 1e-6 and 1 <= round(period_ms) <= 255:
+            writes += [('ip_units', round(period_ms)), ('ip_index', -3)]
+        else:  # 100 us units
+            writes += [('ip_units', round(period_ms * 10)), ('ip_index', -4)]
+        writes += [('ip_clear', 0), ('ip_clear', 1)]
+        for name, value in writes:
+            if self.node.has_object(*self.key[name]):
+                self.node.sdo_write(*self.key[name], value)
+
+    def stop_deceleration(self) -> float:
+        """Deceleration (SI, > 0) for a controlled stop: the joint's max_acceleration limit,
+        else the drive's profile deceleration 0x6084 (read once), else 1 unit/s^2."""
+        if self._stop_deceleration is None:
+            value = self.config.limits.max_acceleration
+            key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
+            if value is None and self.node.has_object(*key):
+                try:
+                    value = abs(float(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)  # type: ignore[arg-type]
+                except Exception:
+                    value = None
+            self._stop_deceleration = value if value else 1.0
+        return self._stop_deceleration
+
+    def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
+        """A stream that pushes interpolation points (PVT) while the drive's buffer has room."""
+        with self._cond:
+            self._feeder = feeder
+            self._source = None if feeder is not None else self._source
+
+    def interpolation_free_slots(self) -> int | None:
+        """Free places in the drive's interpolation buffer (0x60C4:2), None if unknown."""
+        value = self._value('ip_free')
+        return None if value is None else int(value)
+
+    def push_interpolation_point(self, position: int, time_ms: int, velocity: int) -> None:
+        """Write one PVT record (0x60C1:3 velocity, :2 time, :1 position, in device units);
+        sent together this cycle, the drive buffers it at the next SYNC."""
+        self.node.write(*self.key['ip_velocity'], velocity)
+        self.node.write(*self.key['ip_time'], time_ms)
+        self.node.write(*self.key['ip_position'], position)
 
     @property
     def mode(self) -> int:
@@ -445,11 +519,6 @@ class Axis:
             self._source = source
             if source is None:
                 self._last_command = time.monotonic()  # the dead-man then holds if nothing follows
-
-    def enable_interpolation(self, on: bool) -> None:
-        """Controlword bit 4 in interpolated position mode."""
-        with self._cond:
-            self._ip_enabled = on
 
     def home(self, timeout: float | None = None) -> None:
         """Run the drive's homing (0x6098 method etc. from the config, else the drive's own)."""

@@ -105,7 +105,20 @@ def _homing(sec: Section | None) -> HomingConfig:
                         offset=sec.get_number('offset'))
 
 
-def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str) -> AxisDraft | None:
+def _interpolation(sec: Section, family: DriveFamily) -> int:
+    """0x60C0 for interpolated position mode: 'linear' (0) or 'pvt' (the family's own code)."""
+    choice = sec.get_str('interpolation', family.default_interpolation, choices=('linear', 'pvt'))
+    if choice == 'pvt':
+        if family.pvt_submode is None:
+            sec.issues.error(sec.loc('interpolation'), f"family '{family.name}' has no PVT interpolation "
+                                                       "sub-mode; use linear")
+            return 0
+        return family.pvt_submode
+    return 0
+
+
+def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
+          family: DriveFamily) -> AxisDraft | None:
     sec = Section.of(issues, value, loc, 'an axis section (a mapping with at least `joint`)')
     if sec is None:
         return None
@@ -120,7 +133,8 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str) -> Axi
     scaling = parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
     axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
                       joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
-                      homing=_homing(sec.section('homing')), where=f'{file}: {loc.path}', **modes)
+                      homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
+                      where=f'{file}: {loc.path}', **modes)
     slot_loc = sec.loc('slot') if 'slot' in sec else loc
     return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None
 
@@ -132,7 +146,8 @@ def _channel_names(node: Section) -> list[tuple[Loc, str | None]] | None:
     return [(loc, _joint(node.issues, value, loc)) for loc, value in items]
 
 
-def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str) -> list[AxisDraft]:
+def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str,
+              family: DriveFamily) -> list[AxisDraft]:
     """ros2_canopen's form: one axis per channel, node-level scale and mode keys,
     per-channel overrides in ``channels``."""
     issues = node.issues
@@ -169,7 +184,8 @@ def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str) -> list[A
         scaling = parse_scaling(issues, scale_section, 'revolute', where, ros_defaults)
         if joint is None:
             continue
-        axis = AxisConfig(joint=joint, slot=index, scaling=scaling, where=f'{file}: {where.path}', **modes)
+        axis = AxisConfig(joint=joint, slot=index, scaling=scaling, where=f'{file}: {where.path}',
+                          ip_submode=family.pvt_submode if family.default_interpolation == 'pvt' else 0, **modes)
         drafts.append(AxisDraft(axis, where, joint_loc, where))
     return drafts
 
@@ -200,10 +216,10 @@ def parse_axes(node: Section, name: str, family: DriveFamily, ros_defaults: bool
     if not _form_conflicts(node, family):
         return []
     if 'axes' not in node:
-        drafts = _ros_axes(node, name, ros_defaults, file)
+        drafts = _ros_axes(node, name, ros_defaults, file, family)
     else:
         items = node.get_list('axes', 'a list of axis sections') or []
-        drafts = [d for d in (_axis(node.issues, v, loc, i, file) for i, (loc, v) in enumerate(items)) if d]
+        drafts = [d for d in (_axis(node.issues, v, loc, i, file, family) for i, (loc, v) in enumerate(items)) if d]
     seen: dict[int, AxisDraft] = {}
     for draft in drafts:
         slot = draft.axis.slot

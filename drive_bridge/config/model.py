@@ -150,6 +150,7 @@ class AxisConfig:
     position_mode: int = 8  # mode used for position commands
     velocity_mode: int = 9  # mode used for velocity commands
     effort_mode: int = 10  # mode used for effort commands
+    ip_submode: int = 0  # 0x60C0 in interpolated position mode: 0 linear, the family's code for PVT
     scaling: AxisScaling = field(default_factory=AxisScaling)
     limits: AxisLimits = field(default_factory=AxisLimits)
     homing: HomingConfig = field(default_factory=HomingConfig)

@@ -31,6 +31,9 @@ class DriveFamily:
     has_cia402: ClassVar[bool] = True
     max_axes: ClassVar[int] = 1
     emcy_texts: ClassVar[Mapping[int, str]] = {}  # family-specific EMCY code texts
+    pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of cubic PVT interpolation, if any
+    default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
+    interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
 
     def eds_for(self, axis_count: int) -> Path | None:
         """The shipped EDS for a node with ``axis_count`` axes (None: the config must name one)."""

@@ -18,6 +18,13 @@ from canopen.objectdictionary import ODVariable, datatypes as dt
 from drive_bridge.config.model import PdoConfig
 
 ObjectKey = tuple[int, int]
+# Writing an interpolation data record (0x60C1, and +0x800 per axis) pushes a new point into
+# the drive's buffer, so an RPDO carrying one is sent only when written, not every cycle.
+INTERPOLATION_DATA_RECORD = 0x60C1
+
+
+def is_buffered_entry(index: int) -> bool:
+    return index >= 0x6000 and (index - INTERPOLATION_DATA_RECORD) % 0x800 == 0
 _FLOAT = {dt.REAL32: struct.Struct('<f'), dt.REAL64: struct.Struct('<d')}
 
 
@@ -103,6 +110,9 @@ class ProcessImage:
         self.rx_errors = 0
         self.last_rx_error = ''
         self._outputs: dict[int, int] = {i: 0 for i in range(len(self.tx_layouts))}
+        self._on_demand = {i for i, layout in enumerate(self.tx_layouts)
+                           if any(is_buffered_entry(f.key[0]) for f in layout.fields)}
+        self._written: set[int] = set()
         self._output_fields: dict[ObjectKey, tuple[int, PdoField]] = {
             f.key: (i, f) for i, layout in enumerate(self.tx_layouts) for f in layout.fields}
         self._lock = threading.Lock()
@@ -147,6 +157,7 @@ class ProcessImage:
         pdo, pdo_field = self._output_fields[(index, subindex)]
         with self._lock:
             self._outputs[pdo] = pdo_field.insert(self._outputs[pdo], value)
+            self._written.add(pdo)
 
     def output(self, index: int, subindex: int = 0) -> int | float:
         pdo, pdo_field = self._output_fields[(index, subindex)]
@@ -154,7 +165,11 @@ class ProcessImage:
         return pdo_field.extract(payload, payload.to_bytes(8, 'little'))
 
     def frames(self) -> list[tuple[int, bytes]]:
-        """(COB-ID, payload) of every enabled RPDO, from the current outputs."""
+        """(COB-ID, payload) of the RPDOs to send this cycle: every enabled RPDO, except that
+        one carrying interpolation data goes out only after a write (one write, one point)."""
         with self._lock:
-            return [(layout.cob_id, self._outputs[i].to_bytes(layout.length, 'little'))
-                    for i, layout in enumerate(self.tx_layouts)]
+            frames = [(layout.cob_id, self._outputs[i].to_bytes(layout.length, 'little'))
+                      for i, layout in enumerate(self.tx_layouts)
+                      if i not in self._on_demand or i in self._written]
+            self._written.clear()
+            return frames

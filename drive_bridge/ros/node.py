@@ -12,11 +12,12 @@ from rclpy.node import Node
 from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
 from drive_bridge.config.model import BusConfig
 from drive_bridge.master.events import BusEvent, Level
-from drive_bridge.master.master import Master
+from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master
 from drive_bridge.ros.command_topics import CommandTopics
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare
 from drive_bridge.ros.services import BridgeServices
 from drive_bridge.ros.state_topics import StateTopics
+from drive_bridge.ros.trajectory_action import TrajectoryAction
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 AUTO_ENABLE_TIMEOUT = 30.0
@@ -74,11 +75,15 @@ class BusNode(Node):
         self.master = Master(self.config)
         self.master.add_event_listener(self._log_event)
         self.master.start()
-        self.trajectories = TrajectoryExecutor(self.master.axes)
+        self.trajectories = TrajectoryExecutor(
+            self.master.axes, cycle_period=self.config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
+            pvt_segment=self.params.pvt_segment, pvt_lookahead=self.params.pvt_lookahead)
         self.master.add_cycle_listener(self.trajectories.check)
+        self.master.add_emcy_listener(self.trajectories.on_emcy)
         self.state_topics = StateTopics(self, self.master, self.params)
         self.command_topics = CommandTopics(self, self.master, self.trajectories, self.params)
         self.service_handlers = BridgeServices(self, self.master, self.trajectories)
+        self.trajectory_action = TrajectoryAction(self, self.master, self.trajectories)
         self.state_topics.attach()
         self.set_active(True)
         bus = self.config.bus
@@ -95,6 +100,7 @@ class BusNode(Node):
         self.state_topics.active = active
         self.command_topics.active = active
         self.service_handlers.active = active
+        self.trajectory_action.active = active
         if not active:
             self.trajectories.stop(list(self.master.axes), 'bridge deactivated')
             for axis in self.master.axes.values():

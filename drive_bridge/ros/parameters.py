@@ -28,6 +28,8 @@ class BridgeParameters:
     command_joints: tuple[str, ...] = ()
     joint_commands_topic: str = '~/joint_commands'
     auto_enable: bool = False
+    pvt_segment: float = 0.01
+    pvt_lookahead: float = 0.05
 
 
 DESCRIPTIONS = {
@@ -46,6 +48,8 @@ DESCRIPTIONS = {
     'command_joints': 'joint order of ~/commands (empty: all joints in configuration order)',
     'joint_commands_topic': 'sensor_msgs/JointState command topic (topic_based_ros2_control)',
     'auto_enable': 'enable every axis once its node is operational',
+    'pvt_segment': 'seconds between PVT points (a whole number of ms)',
+    'pvt_lookahead': 'seconds of PVT points kept ahead in the drive buffer',
 }
 
 
@@ -92,6 +96,10 @@ def validate(params: BridgeParameters) -> list[str]:
             problems.append(f'parameter {name} must be >= 0, got {getattr(params, name)}')
     if params.diagnostics_period <= 0:
         problems.append(f'parameter diagnostics_period must be > 0, got {params.diagnostics_period}')
+    if params.pvt_segment <= 0 or abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
+        problems.append(f'parameter pvt_segment must be a positive whole number of ms, got {params.pvt_segment}')
+    if params.pvt_lookahead < params.pvt_segment:
+        problems.append(f'parameter pvt_lookahead must be >= pvt_segment, got {params.pvt_lookahead}')
     if params.qos_depth < 1:
         problems.append(f'parameter qos_depth must be >= 1, got {params.qos_depth}')
     if params.qos_reliability not in RELIABILITIES:

@@ -17,10 +17,13 @@ from dataclasses import dataclass, field
 from drive_bridge.cia402.axis import Axis, Setpoint
 from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (JointSample, JointSpline, Trajectory, TrajectoryError,
                                                joint_splines, validate)
 
-STREAMABLE_MODES = {Mode.CYCLIC_SYNC_POSITION: 'position', Mode.CYCLIC_SYNC_VELOCITY: 'velocity'}
+STREAMABLE_MODES = {Mode.CYCLIC_SYNC_POSITION: 'cyclic position', Mode.CYCLIC_SYNC_VELOCITY: 'cyclic velocity',
+                    Mode.INTERPOLATED_POSITION: 'interpolated position'}
 KEEP_OLD_SPLINES = 2.0  # s a replaced spline is kept after its successor starts (for desired())
 
 
@@ -52,9 +55,14 @@ class TrajectoryHandle:
 class TrajectoryExecutor:
     """Accepts trajectories for the bus's joints and feeds each axis one setpoint per cycle."""
 
-    def __init__(self, axes: Mapping[str, Axis], clock: Callable[[], float] = time.time) -> None:
+    def __init__(self, axes: Mapping[str, Axis], clock: Callable[[], float] = time.time,
+                 cycle_period: float = 0.004, pvt_segment: float = 0.01, pvt_lookahead: float = 0.05) -> None:
         self.axes = dict(axes)
         self.clock = clock
+        self.cycle_period = cycle_period
+        self.pvt_segment = pvt_segment
+        self.pvt_lookahead = pvt_lookahead
+        self._feeders: dict[str, PvtFeeder] = {}
         self._lock = threading.Lock()
         self._splines: dict[str, list[JointSpline]] = {j: [] for j in self.axes}
         self._owner: dict[str, TrajectoryHandle | None] = {j: None for j in self.axes}
@@ -74,7 +82,7 @@ class TrajectoryExecutor:
                                       'enabled; enable it first')
             if axis.mode not in STREAMABLE_MODES:
                 raise TrajectoryError(f'{source}: joint {joint} is in mode {mode_name(axis.mode)}; '
-                                      f'trajectories need csp or csv (set_mode)')
+                                      f'trajectories need csp, csv or ip (set_mode)')
 
     def desired(self, joint: str, t: float) -> JointSample | None:
         """The desired state of a joint at time t, None when no trajectory ever ran."""
@@ -97,7 +105,7 @@ class TrajectoryExecutor:
         are named) and returns None. TrajectoryError says why a trajectory was refused."""
         now = self.clock()
         if not trajectory.points:
-            self.stop(trajectory.joints or tuple(self.axes), 'stopped by an empty trajectory')
+            self.stop(trajectory.joints or tuple(self.axes), 'stopped by an empty trajectory', smooth=True)
             return None
         validate(trajectory, {j: a.config.limits for j, a in self.axes.items()}, source)
         start = trajectory.start if trajectory.start else now
@@ -106,6 +114,12 @@ class TrajectoryExecutor:
             raise TrajectoryError(f'{source}: ends {now - end:.3f} s in the past (header.stamp too old)')
         held = tuple(j for j in self.axes if j not in trajectory.joints and self._owner[j] is not None)
         self._check_axes((*trajectory.joints, *held), source)
+        # a PVT stream already committed points to the drive: splice after them
+        horizons = [f.horizon for j, f in self._feeders.items() if j in trajectory.joints or j in held]
+        committed = max((h for h in horizons if h is not None), default=start)
+        if committed > start:
+            shift = committed - start
+            start, end = start + shift, end + shift
         with self._lock:
             states = {j: self._start_state(j, start) for j in (*trajectory.joints, *held)}
             splines = joint_splines(trajectory, start, states)
@@ -119,25 +133,71 @@ class TrajectoryExecutor:
                 self._owner[joint] = handle
                 kept = [s for s in self._splines[joint] if s.start_time < start]
                 self._splines[joint] = [*kept[-1:], spline]
-                self.axes[joint].set_setpoint_source(self._source(joint))
+                self._attach(joint, start)
             self._handles.append(handle)
         return handle
 
-    def _source(self, joint: str) -> Callable[[float], Setpoint | None]:
+    def strategy(self, joint: str) -> str:
+        """How the joint is streamed in its current mode: cyclic, ip-linear or pvt."""
         axis = self.axes[joint]
+        if axis.mode == Mode.INTERPOLATED_POSITION:
+            return 'pvt' if axis.config.ip_submode != 0 else 'ip-linear'
+        return 'cyclic'
+
+    def _attach(self, joint: str, start: float) -> None:
+        axis = self.axes[joint]
+        if self.strategy(joint) == 'pvt':
+            feeder = self._feeders.get(joint)
+            if feeder is None:
+                feeder = PvtFeeder(lambda t: self.desired(joint, t), lambda: self._end_of(joint),
+                                   self.pvt_segment, self.pvt_lookahead)
+                self._feeders[joint] = feeder
+            feeder.start(start)
+            axis.set_buffer_feeder(feeder)
+        else:
+            axis.set_setpoint_source(self._source(joint))
+
+    def _end_of(self, joint: str) -> float | None:
+        splines = self._splines[joint]
+        return splines[-1].end_time if splines else None
+
+    def _source(self, joint: str) -> Callable[[float], Setpoint | None]:
+        """Set-points sampled one cycle ahead: a drive latches a set-point at SYNC and reaches
+        it one period later (CSP, linear IP); CSV gets the mean velocity of that period."""
+        axis = self.axes[joint]
+        period = self.cycle_period
 
         def sample(t: float) -> Setpoint | None:
-            desired = self.desired(joint, t)
-            if desired is None:
-                return None
             if axis.mode == Mode.CYCLIC_SYNC_VELOCITY:
-                return Setpoint(velocity=desired.velocity)
-            return Setpoint(position=desired.position)
+                desired = self.desired(joint, t + period / 2)
+                return None if desired is None else Setpoint(velocity=desired.velocity)
+            desired = self.desired(joint, t + period)
+            return None if desired is None else Setpoint(position=desired.position)
         return sample
 
+    def feeder(self, joint: str) -> PvtFeeder | None:
+        return self._feeders.get(joint)
+
+    def on_emcy(self, event: EmcyEvent) -> None:
+        """A drive reporting its interpolation buffer ran dry or overflowed: abort the
+        stream of its joints and hold them with HALT (safe: the drive decelerates and stays
+        enabled; 'resume' clears it)."""
+        joints = [j for j, a in self.axes.items() if a.node.node_id == event.node_id
+                  and event.code in a.node.family.interpolation_fault_codes
+                  and self.strategy(j) == 'pvt']
+        if not joints:
+            return
+        self.stop(joints, f'{event}: stream aborted, axis held (HALT)', 'aborted')
+        for joint in joints:
+            feeder = self._feeders.get(joint)
+            if feeder is not None:
+                feeder.ended = True
+            self.axes[joint].halt(True)
+
     # -- stopping and supervision -------------------------------------------------------------
-    def stop(self, joints: Iterable[str], reason: str, state: str = 'cancelled') -> None:
-        """Hold the joints at their desired position now; their trajectories end with ``state``."""
+    def stop(self, joints: Iterable[str], reason: str, state: str = 'cancelled', smooth: bool = False) -> None:
+        """End the joints' trajectories (with ``state``) and hold them: at once, or (smooth)
+        after decelerating from their desired velocity at the axis' stop deceleration."""
         now = self.clock()
         with self._lock:
             for joint in joints:
@@ -146,11 +206,22 @@ class TrajectoryExecutor:
                 handle = self._owner[joint]
                 if handle is not None:
                     handle.finish(state, reason)
-                desired = self.desired(joint, now)
+                feeder = self._feeders.get(joint)
+                at = now if feeder is None or feeder.horizon is None else max(now, feeder.horizon)
+                desired = self.desired(joint, at)
                 if desired is not None:
-                    hold = JointSpline(now, JointSample(desired.position, 0, 0), [], [], 1)
-                    self._splines[joint] = [hold]
+                    self._splines[joint] = [*[s for s in self._splines[joint] if s.start_time < at][-1:],
+                                            self._stop_spline(joint, at, desired, smooth)]
                 self._owner[joint] = None
+
+    def _stop_spline(self, joint: str, at: float, desired: JointSample, smooth: bool) -> JointSpline:
+        """Constant deceleration from the desired velocity to rest (a quadratic: the cubic
+        Hermite whose end lies at half the velocity times the duration), or a plain hold."""
+        if not smooth or abs(desired.velocity) < 1e-9:
+            return JointSpline(at, JointSample(desired.position, 0, 0), [], [], 1)
+        duration = abs(desired.velocity) / self.axes[joint].stop_deceleration()
+        rest = JointSample(desired.position + desired.velocity * duration / 2, 0.0, 0.0)
+        return JointSpline(at, JointSample(desired.position, desired.velocity, 0.0), [duration], [rest], 3)
 
     def check(self, _cycle: int = 0) -> None:
         """Cycle hook: finish trajectories whose time is over, abort those whose axes dropped out."""

@@ -1,0 +1,166 @@
+"""The FollowJointTrajectory action (control_msgs semantics) on the bus's joints.
+
+A new goal replaces the running one (which ends aborted, "replaced"); cancel stops the
+joints with a controlled deceleration; a path tolerance violation stops and aborts; at
+the end the goal tolerance must hold within goal_time_tolerance. Feedback (desired,
+actual, error) is sent at FEEDBACK_PERIOD. The execute coroutine sleeps on rclpy futures
+completed by timers, so the single-threaded executor keeps running.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+import rclpy.task
+from builtin_interfaces.msg import Duration
+from drive_bridge_interfaces.action import FollowJointTrajectory
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action.server import ServerGoalHandle
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.node import Node
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from drive_bridge.master.master import Master
+from drive_bridge.ros.conversions import seconds, trajectory_from_msg
+from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
+from drive_bridge.streaming.trajectory import TrajectoryError
+
+FEEDBACK_PERIOD = 0.05
+DEFAULT_SETTLE = 0.5  # s allowed after the end for the goal tolerance when goal_time_tolerance is 0
+Result = FollowJointTrajectory.Result
+
+
+def _tolerances(entries, joints: list[str], field: str) -> dict[str, float]:
+    """Per joint tolerance on ``field``: > 0 checked, 0 (default) and < 0 not checked."""
+    values = {e.name: getattr(e, field) for e in entries}
+    return {j: values[j] for j in joints if values.get(j, 0.0) > 0}
+
+
+class TrajectoryAction:
+    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor) -> None:
+        self.node = node
+        self.master = master
+        self.executor = executor
+        self.active = True
+        self._current: ServerGoalHandle | None = None
+        self.server = ActionServer(node, FollowJointTrajectory, '~/follow_joint_trajectory',
+                                   execute_callback=self.execute, goal_callback=self.on_goal,
+                                   cancel_callback=lambda _goal: CancelResponse.ACCEPT,
+                                   callback_group=ReentrantCallbackGroup())
+
+    def on_goal(self, _request) -> GoalResponse:
+        return GoalResponse.ACCEPT if self.active else GoalResponse.REJECT
+
+    async def _sleep(self, seconds_: float) -> None:
+        future: rclpy.task.Future = rclpy.task.Future()
+        executor = self.node.executor
+
+        def done() -> None:
+            future.set_result(None)
+            if executor is not None:
+                executor.wake()
+        threading.Timer(seconds_, done).start()
+        await future
+
+    @staticmethod
+    def _result(code: int, text: str) -> FollowJointTrajectory.Result:
+        return FollowJointTrajectory.Result(error_code=code, error_string=text)
+
+    async def execute(self, goal: ServerGoalHandle) -> FollowJointTrajectory.Result:
+        request = goal.request
+        joints = list(request.trajectory.joint_names)
+        unknown = [j for j in joints if j not in self.master.axes]
+        if unknown or not joints:
+            goal.abort()
+            text = f'unknown joint(s) {", ".join(unknown)}' if unknown else 'no joint_names'
+            return self._result(Result.INVALID_JOINTS, text)
+        try:
+            handle = self.executor.submit(trajectory_from_msg(request.trajectory), '~/follow_joint_trajectory')
+        except TrajectoryError as exc:
+            goal.abort()
+            code = Result.OLD_HEADER_TIMESTAMP if 'in the past' in str(exc) else Result.INVALID_GOAL
+            return self._result(code, str(exc))
+        if handle is None:  # an empty trajectory: a stop request, done
+            goal.succeed()
+            return self._result(Result.SUCCESSFUL, 'empty trajectory: joints stopped')
+        previous, self._current = self._current, goal
+        if previous is not None and previous.is_active:
+            self.node.get_logger().info('follow_joint_trajectory: a new goal replaces the running one')
+        return await self._follow(goal, handle, joints)
+
+    async def _follow(self, goal: ServerGoalHandle, handle: TrajectoryHandle,
+                      joints: list[str]) -> FollowJointTrajectory.Result:
+        request = goal.request
+        path = {f: _tolerances(request.path_tolerance, joints, f) for f in ('position', 'velocity')}
+        final = {f: _tolerances(request.goal_tolerance, joints, f) for f in ('position', 'velocity')}
+        settle = seconds(request.goal_time_tolerance) or DEFAULT_SETTLE
+        last_point = request.trajectory.points[-1]
+        goal_positions = dict(zip(joints, last_point.positions))
+        while True:
+            if goal.is_cancel_requested:
+                self.executor.stop(joints, 'goal cancelled', smooth=True)
+                goal.canceled()
+                return self._result(Result.SUCCESSFUL, 'cancelled: joints stopped with a controlled deceleration')
+            if not goal.is_active or handle.state == 'superseded':
+                goal.abort()
+                return self._result(Result.INVALID_GOAL, f'aborted: {handle.reason or "replaced by a newer goal"}')
+            if handle.state in ('aborted', 'cancelled'):
+                goal.abort()
+                return self._result(Result.PATH_TOLERANCE_VIOLATED, f'aborted: {handle.reason}')
+            now = time.time()
+            feedback, errors = self._feedback(joints, now)
+            goal.publish_feedback(feedback)
+            if now < handle.end:
+                violation = self._violation(errors, path, 'path')
+                if violation:
+                    self.executor.stop(joints, violation, 'aborted', smooth=True)
+                    goal.abort()
+                    return self._result(Result.PATH_TOLERANCE_VIOLATED, violation)
+            else:
+                actual = {j: self.master.axes[j].snapshot() for j in joints}
+                misses = [f'{j}: position {actual[j].position:.6g}, goal {goal_positions[j]:.6g} '
+                          f'(tolerance {tol:g})' for j, tol in final['position'].items()
+                          if abs(actual[j].position - goal_positions[j]) > tol]
+                misses += [f'{j}: velocity {actual[j].velocity:.6g} (tolerance {tol:g})'
+                           for j, tol in final['velocity'].items() if abs(actual[j].velocity) > tol]
+                if not misses:
+                    goal.succeed()
+                    return self._result(Result.SUCCESSFUL, '')
+                if now > handle.end + settle:
+                    goal.abort()
+                    return self._result(Result.GOAL_TOLERANCE_VIOLATED,
+                                        f'goal not reached {settle:g} s after the end: ' + '; '.join(misses))
+            await self._sleep(FEEDBACK_PERIOD)
+
+    def _feedback(self, joints: list[str], now: float):
+        desired, actual, error = JointTrajectoryPoint(), JointTrajectoryPoint(), JointTrajectoryPoint()
+        errors = {}
+        for joint in joints:
+            wanted = self.executor.desired(joint, now)
+            snapshot = self.master.axes[joint].snapshot()
+            d_pos = wanted.position if wanted else math.nan
+            d_vel = wanted.velocity if wanted else math.nan
+            desired.positions.append(d_pos)
+            desired.velocities.append(d_vel)
+            actual.positions.append(snapshot.position)
+            actual.velocities.append(snapshot.velocity)
+            error.positions.append(d_pos - snapshot.position)
+            error.velocities.append(d_vel - snapshot.velocity)
+            errors[joint] = (d_pos - snapshot.position, d_vel - snapshot.velocity)
+        feedback = FollowJointTrajectory.Feedback(joint_names=joints, desired=desired, actual=actual, error=error)
+        feedback.header.stamp = stamp_from_seconds(now)
+        for point in (desired, actual, error):
+            point.time_from_start = Duration()
+        return feedback, errors
+
+    @staticmethod
+    def _violation(errors: dict[str, tuple[float, float]], tolerances: dict[str, dict[str, float]],
+                   kind: str) -> str:
+        for field, index in (('position', 0), ('velocity', 1)):
+            for joint, tol in tolerances[field].items():
+                value = errors[joint][index]
+                if math.isfinite(value) and abs(value) > tol:
+                    return f'{kind} tolerance violated: {joint} {field} error {value:.6g} > {tol:g}'
+        return ''

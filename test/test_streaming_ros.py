@@ -1,0 +1,165 @@
+"""Trajectory streaming through ROS: the FollowJointTrajectory action, interpolated
+position (linear), replacement, stopping with deceleration."""
+from __future__ import annotations
+
+import time
+
+import pytest
+import yaml
+from builtin_interfaces.msg import Duration
+from drive_bridge_interfaces.action import FollowJointTrajectory
+from drive_bridge_interfaces.msg import JointTolerance
+from drive_bridge_interfaces.srv import SetMode
+from rclpy.action import ActionClient
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from bustools import demo_data
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.ros.node import BusNode
+from rostools import RosHarness, wait_for
+
+NS = '/drive_bridge'
+Result = FollowJointTrajectory.Result
+
+
+@pytest.fixture
+def bridge(ros: RosHarness):
+    node = BusNode(context=ros.context, parameter_overrides=[
+        Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
+        Parameter('auto_enable', value=True)])
+    ros.add(node)
+    node.master.wait_until_operational(10.0)
+    wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
+    yield node
+    node.close()
+
+
+def point(t: float, positions, velocities=()) -> JointTrajectoryPoint:
+    return JointTrajectoryPoint(positions=list(positions), velocities=list(velocities),
+                                time_from_start=Duration(sec=int(t), nanosec=round((t % 1) * 1e9)))
+
+
+class Goal:
+    """One action goal: send, collect feedback, await the result."""
+
+    def __init__(self, ros: RosHarness, client: ActionClient, trajectory: JointTrajectory, **fields) -> None:
+        self.ros = ros
+        self.feedback: list = []
+        goal = FollowJointTrajectory.Goal(trajectory=trajectory, **fields)
+        sent = client.send_goal_async(goal, feedback_callback=lambda f: self.feedback.append(f.feedback))
+        self.handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal response')
+        assert self.handle.accepted
+        self._result = self.handle.get_result_async()
+
+    def result(self, timeout: float = 15.0):
+        return wait_for(lambda: self._result.result() if self._result.done() else None, timeout, 'result').result
+
+    def cancel(self) -> None:
+        future = self.handle.cancel_goal_async()
+        wait_for(lambda: future.done(), 5, 'cancel response')
+
+
+@pytest.fixture
+def action(ros: RosHarness) -> ActionClient:
+    client = ActionClient(ros.node('action_client'), FollowJointTrajectory, f'{NS}/follow_joint_trajectory')
+    assert client.wait_for_server(timeout_sec=10)
+    return client
+
+
+def test_action_executes_with_feedback_and_tolerances(ros, bridge, action) -> None:
+    start = {j: bridge.master.axes[j].snapshot().position for j in ('base_joint', 'elbow_joint')}
+    trajectory = JointTrajectory(joint_names=list(start), points=[
+        point(0.5, [start['base_joint'] + 0.2, start['elbow_joint'] - 0.1], [0.3, -0.15]),
+        point(1.0, [start['base_joint'] + 0.3, start['elbow_joint'] - 0.2], [0.0, 0.0])])
+    goal = Goal(ros, action, trajectory,
+                path_tolerance=[JointTolerance(name='base_joint', position=0.05)],
+                goal_tolerance=[JointTolerance(name='base_joint', position=0.002),
+                                JointTolerance(name='elbow_joint', position=0.002)])
+    result = goal.result()
+    assert (result.error_code, result.error_string) == (Result.SUCCESSFUL, '')
+    assert len(goal.feedback) >= 10
+    middle = goal.feedback[len(goal.feedback) // 2]
+    assert list(middle.joint_names) == ['base_joint', 'elbow_joint']
+    for i in range(2):
+        assert middle.error.positions[i] == pytest.approx(middle.desired.positions[i] - middle.actual.positions[i])
+        assert abs(middle.error.positions[i]) < 0.05
+    assert bridge.master.axes['base_joint'].snapshot().position == pytest.approx(start['base_joint'] + 0.3, abs=2e-3)
+
+
+def test_action_result_codes(ros, bridge, action) -> None:
+    invalid = Goal(ros, action, JointTrajectory(joint_names=['nope'], points=[point(1, [0.0])])).result()
+    assert invalid.error_code == Result.INVALID_JOINTS and 'nope' in invalid.error_string
+    bad = Goal(ros, action, JointTrajectory(joint_names=['base_joint'], points=[point(1, [9.0])])).result()
+    assert bad.error_code == Result.INVALID_GOAL and 'above its limit' in bad.error_string
+    old = JointTrajectory(joint_names=['base_joint'], points=[point(0.1, [0.0])])
+    old.header.stamp = stamp_from_seconds(time.time() - 10)
+    assert Goal(ros, action, old).result().error_code == Result.OLD_HEADER_TIMESTAMP
+    here = bridge.master.axes['base_joint'].snapshot().position
+    tight = Goal(ros, action, JointTrajectory(joint_names=['base_joint'], points=[point(1.0, [here + 0.5])]),
+                 path_tolerance=[JointTolerance(name='base_joint', position=1e-6)]).result()
+    assert tight.error_code == Result.PATH_TOLERANCE_VIOLATED
+    assert 'path tolerance violated: base_joint position error' in tight.error_string
+
+
+def test_cancel_stops_with_deceleration_and_a_new_goal_replaces_the_old(ros, bridge, action) -> None:
+    axis = bridge.master.axes['base_joint']
+    here = axis.snapshot().position
+    first = Goal(ros, action, JointTrajectory(joint_names=['base_joint'], points=[point(3.0, [here + 1.5])]))
+    time.sleep(0.8)
+    second = Goal(ros, action, JointTrajectory(joint_names=['base_joint'], points=[point(3.0, [here - 1.0])]))
+    replaced = first.result()
+    assert replaced.error_code == Result.INVALID_GOAL and 'replaced by trajectory' in replaced.error_string
+    time.sleep(0.8)
+    moving = abs(axis.snapshot().velocity)
+    assert moving > 0.1
+    second.cancel()
+    speeds = []
+    for _ in range(30):
+        speeds.append(abs(axis.snapshot().velocity))
+        time.sleep(0.01)
+    assert speeds[5] > 0.05, 'stopped instantly instead of decelerating'
+    wait_for(lambda: abs(axis.snapshot().velocity) < 1e-3, 5, 'standstill after cancel')
+    assert second.result().error_string.startswith('cancelled')
+
+
+def test_empty_trajectory_on_the_topic_stops_with_deceleration(ros, bridge) -> None:
+    axis = bridge.master.axes['shoulder_joint']
+    here = axis.snapshot().position
+    publisher = ros.node('topic_pub').create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
+    time.sleep(0.3)
+    publisher.publish(JointTrajectory(joint_names=['shoulder_joint'], points=[point(2.0, [here + 1.2])]))
+    wait_for(lambda: abs(axis.snapshot().velocity) > 0.3, 3, 'moving')
+    velocity = axis.snapshot().velocity
+    publisher.publish(JointTrajectory(joint_names=['shoulder_joint']))
+    wait_for(lambda: abs(axis.snapshot().velocity) < 1e-3, 5, 'stopped')
+    stopped_at = axis.snapshot().position
+    deceleration = axis.stop_deceleration()
+    # travel after the stop request ~ v^2 / 2a (plus what was moving while the message crossed)
+    assert stopped_at - here > velocity ** 2 / (2 * deceleration) * 0.5
+    assert not bridge.trajectories.active()
+
+
+def test_interpolated_position_linear_follows_the_path(ros, bridge) -> None:
+    states: list[JointState] = []
+    ros.node('ip_states').create_subscription(JointState, '/joint_states', states.append, 1000)
+    client = ros.node('ip_mode').create_client(SetMode, f'{NS}/set_mode')
+    response = ros.call(client, SetMode.Request(joints=['base_joint'], mode='ip'))
+    assert response.success, response.message
+    assert bridge.trajectories.strategy('base_joint') == 'ip-linear'
+    sim_axis = bridge.simulation.drive(2).axis(0)
+    here = bridge.master.axes['base_joint'].snapshot().position
+    start = time.time() + 0.3
+    trajectory = JointTrajectory(joint_names=['base_joint'], points=[
+        point(0.6, [here + 0.15], [0.4]), point(1.2, [here + 0.3], [0.0])])
+    trajectory.header.stamp = stamp_from_seconds(start)
+    publisher = ros.node('ip_pub').create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
+    time.sleep(0.2)
+    publisher.publish(trajectory)
+    time.sleep(1.8)
+    assert sim_axis.mode == 7 and sim_axis.statusword & 0x1000  # IP active on the drive
+    assert sim_axis.ip.overflows == 0
+    final = dict(zip(states[-1].name, states[-1].position))['base_joint']
+    assert final == pytest.approx(here + 0.3, abs=2e-3)
