@@ -1,0 +1,85 @@
+"""SimDrive402: a simulated CiA 402 drive with one axis per 0x800 slot of its EDS.
+
+Adds to the CiA 301 slave the axes, the drive's reaction to a lost master heartbeat
+(EMCY 0x8130, then the fault reaction on every axis: the safety net when the bridge
+dies) and the drive-level fault injection used by the master's tests.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from drive_bridge.cia402 import objects as obj
+from drive_bridge.config.model import NodeConfig
+from drive_bridge.sim.axis402 import Axis402
+from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, OptionSpec
+from drive_bridge.sim.slave import EMCY_HEARTBEAT, SimulatedSlave
+
+
+class SimDrive402(SimulatedSlave):
+    """A CiA 402 drive; ``axis(k)`` is the axis whose objects sit at index + 0x800*k."""
+
+    OPTIONS: dict[str, OptionSpec] = {**SLAVE_OPTIONS, **AXIS_OPTIONS}
+
+    def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
+        super().__init__(node, options=options)
+        count = self._axis_count(node)
+        self.axes: tuple[Axis402, ...] = tuple(
+            Axis402(self, slot, {name: self.options[name][slot] for name in AXIS_OPTIONS})
+            for slot in range(count))
+
+    @staticmethod
+    def _axis_count(node: NodeConfig) -> int:
+        count = 0
+        while count < obj.MAX_AXES and obj.for_axis(obj.CONTROLWORD, count) in node.od:
+            count += 1
+        if count == 0:
+            raise ValueError(f'node {node.name!r}: a CiA 402 simulator needs a controlword 0x6040 in its EDS')
+        return count
+
+    def axis(self, slot: int = 0) -> Axis402:
+        try:
+            return self.axes[slot]
+        except IndexError:
+            raise IndexError(f'node {self.name!r} has {len(self.axes)} axes, no slot {slot}') from None
+
+    # ---- model hooks -------------------------------------------------------------------
+    def _reset_application(self) -> None:
+        for axis in self.axes:
+            axis.reset()
+
+    def _on_boot(self) -> None:
+        for axis in self.axes:
+            axis.boot()
+
+    def _model_step(self, dt: float, sync: bool) -> None:
+        for axis in self.axes:
+            axis.advance(dt, sync)
+        if sync:  # new set-points start at this SYNC, after the step that ended at it
+            for axis in self.axes:
+                axis.on_sync()
+
+    def _on_heartbeat_lost(self, node: int) -> None:
+        super()._on_heartbeat_lost(node)
+        for axis in self.axes:
+            axis.fault(EMCY_HEARTBEAT, emit=False)
+
+    def fault_cause_persists(self, axis: Axis402) -> bool:
+        """A fault reset fails while this holds (the master's heartbeat is still missing)."""
+        return self._consumer.is_lost()
+
+    # ---- fault injection ---------------------------------------------------------------
+    def inject_fault(self, code: int, axis: int = 0, manufacturer: bytes = b'', persistent: bool = False) -> None:
+        """Raise a drive fault on ``axis``: EMCY (code, 0x1001, ``manufacturer``), 0x603F,
+        fault reaction per 0x605E, then Fault. ``persistent``: fault resets fail until
+        :meth:`clear_fault_cause`."""
+        with self._lock:
+            self.axis(axis).fault(code, bytes(manufacturer), persistent)
+            self.pdo.poll_events()
+
+    def clear_fault_cause(self, axis: int | None = None) -> None:
+        """The persistent cause is gone (of ``axis``, or all); a fault reset works again."""
+        with self._lock:
+            for ax in self.axes if axis is None else (self.axis(axis),):
+                ax.persistent_fault = False
+                ax.persistent_code = 0

@@ -1,0 +1,126 @@
+"""EMCY producer with the error register (0x1001) and the error history (0x1003).
+
+Kept apart from the slave so the bookkeeping CiA 301 asks for (register bits from
+the error class, newest history entry at sub 1, error reset 0x0000 only once every
+error is gone) is in one small place.
+"""
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+
+from drive_bridge.sim.store import ObjectStore, key
+
+ERROR_REGISTER = 0x1001
+ERROR_HISTORY = 0x1003
+COB_ID_EMCY = 0x1014
+COB_ID_INVALID = 1 << 31
+
+# error register (0x1001) bits
+REG_GENERIC = 1 << 0
+REG_CURRENT = 1 << 1
+REG_VOLTAGE = 1 << 2
+REG_TEMPERATURE = 1 << 3
+REG_COMMUNICATION = 1 << 4
+REG_DEVICE_PROFILE = 1 << 5
+REG_MANUFACTURER = 1 << 7
+
+_EMCY = struct.Struct('<HB5s')
+
+
+def register_bits(code: int) -> int:
+    """Error register bits for an EMCY error code (CiA 301 table 21 classes)."""
+    bits = REG_GENERIC
+    high = code >> 12
+    if high == 0x2:
+        bits |= REG_CURRENT
+    elif high == 0x3:
+        bits |= REG_VOLTAGE
+    elif high == 0x4:
+        bits |= REG_TEMPERATURE
+    elif code >> 8 in (0x81, 0x82):
+        bits |= REG_COMMUNICATION
+    elif code >> 8 in (0x86, 0x87, 0x88, 0x89):  # CiA 402 control / positioning errors
+        bits |= REG_DEVICE_PROFILE
+    elif code >> 8 == 0xFF:
+        bits |= REG_MANUFACTURER
+    return bits
+
+
+def emcy_payload(code: int, register: int, manufacturer: bytes = b'') -> bytes:
+    """The 8 data bytes: code (LE16), error register, 5 manufacturer bytes (zero padded)."""
+    return _EMCY.pack(code & 0xFFFF, register & 0xFF, bytes(manufacturer[:5]).ljust(5, b'\0'))
+
+
+class EmcyProducer:
+    """Active errors per source, error register, history and the EMCY frames."""
+
+    def __init__(self, store: ObjectStore, send: Callable[[int, bytes], None]) -> None:
+        self._store = store
+        self._send = send
+        self._active: dict[tuple[str, int], int] = {}  # (source, code) -> register bits
+        subs = sorted(s for k in store.keys_between(ERROR_HISTORY, ERROR_HISTORY)
+                      if (s := k & 0xFF) > 0)
+        self.history_size = len(subs)
+        self.sent: list[tuple[int, int, bytes]] = []  # (code, register, manufacturer) for inspection, bounded
+
+    @property
+    def register(self) -> int:
+        bits = 0
+        for value in self._active.values():
+            bits |= value
+        return bits
+
+    @property
+    def active_codes(self) -> list[int]:
+        return [code for (_source, code) in self._active]
+
+    def is_active(self, source: str | None = None) -> bool:
+        return any(source is None or s == source for (s, _c) in self._active)
+
+    def error(self, code: int, source: str = 'device', manufacturer: bytes = b'',
+              transient: bool = False, emit: bool = True) -> None:
+        """Record an error (unless ``transient``), add it to the history and send its EMCY.
+
+        ``emit=False`` only records it as active: a consequence of an error already
+        signalled (e.g. each axis' fault after one heartbeat-loss EMCY).
+        """
+        if not transient:
+            self._active[(source, code)] = register_bits(code)
+        if not emit:
+            return
+        self._push_history(code)
+        self._emit(code, self.register | (0 if not transient else register_bits(code)), manufacturer)
+
+    def clear(self, source: str | None = None) -> None:
+        """Forget the errors of ``source`` (all if None); EMCY 0x0000 once none is left."""
+        before = len(self._active)
+        self._active = {k: v for k, v in self._active.items() if source is not None and k[0] != source}
+        if before and not self._active:
+            self._emit(0x0000, 0, b'')
+
+    def reset(self) -> None:
+        """Power-on / reset: no active errors, no frame."""
+        self._active.clear()
+
+    def clear_history(self) -> None:
+        for sub in range(1, self.history_size + 1):
+            self._store.values[key(ERROR_HISTORY, sub)] = 0
+        self._store.values[key(ERROR_HISTORY, 0)] = 0
+
+    def _push_history(self, code: int) -> None:
+        if not self.history_size:
+            return
+        values = self._store.values
+        for sub in range(self.history_size, 1, -1):
+            values[key(ERROR_HISTORY, sub)] = values[key(ERROR_HISTORY, sub - 1)]
+        values[key(ERROR_HISTORY, 1)] = code & 0xFFFF
+        values[key(ERROR_HISTORY, 0)] = min(self.history_size, values[key(ERROR_HISTORY, 0)] + 1)
+
+    def _emit(self, code: int, register: int, manufacturer: bytes) -> None:
+        cob = self._store.values.get(key(COB_ID_EMCY, 0), 0)
+        if len(self.sent) < 1000:
+            self.sent.append((code, register, bytes(manufacturer[:5])))
+        if cob & COB_ID_INVALID:
+            return
+        self._send(cob & 0x7FF, emcy_payload(code, register, manufacturer))
