@@ -84,7 +84,8 @@ def test_real_eds_with_family_defaults_and_explicit_pdos() -> None:
     }), 'drives.yaml', REAL_EDS)
     ipos, gold = config.node('ipos'), config.node('gold')
     assert ipos.eds_path == REAL_EDS / 'technosoft.eds'
-    assert [p.cob_id for p in ipos.rpdo] == [0x203, 0x303] and [p.cob_id for p in ipos.tpdo] == [0x183, 0x283]
+    # family default: two RPDOs and two TPDOs per axis, plus RPDO3 with 0x60C1:1 on a one-axis node
+    assert [p.cob_id for p in ipos.rpdo] == [0x203, 0x303, 0x403] and [p.cob_id for p in ipos.tpdo] == [0x183, 0x283]
     assert ipos.tpdo[0].mapping == (PdoEntry(0x6041, 0, 16), PdoEntry(0x6061, 0, 8), PdoEntry(0x6077, 0, 16))
     assert [(i.index, i.subindex, i.value) for i in ipos.boot_sdo] == [(0x60C2, 1, 4), (0x6098, 0, 35)]
     assert [(p.number, p.cob_id, p.bits) for p in gold.rpdo] == [(1, 0x204, 48)]
@@ -137,6 +138,9 @@ def test_real_fixed_mapping_drive() -> None:
         'Kollmorgen_RGM_V2.eds has room for 1',
         "drives.yaml: nodes.rgm: family 'generic_402' default RPDO 2: the mapping of RPDO 2 is fixed in "
         'Kollmorgen_RGM_V2.eds (0x1601 is read-only) and holds 0x6040:00 (16 bits), 0x6060:00 (8 bits); '
+        'map exactly that or use another PDO',
+        "drives.yaml: nodes.rgm: family 'generic_402' default RPDO 3: the mapping of RPDO 3 is fixed in "
+        'Kollmorgen_RGM_V2.eds (0x1602 is read-only) and holds 0x6040:00 (16 bits), 0x607A:00 (32 bits); '
         'map exactly that or use another PDO',
         "drives.yaml: nodes.rgm: family 'generic_402' default TPDO 1: 3 objects mapped, but 0x1A00 in "
         'Kollmorgen_RGM_V2.eds has room for 1',

@@ -132,7 +132,7 @@ def test_without_sync_pdos_are_event_driven(tmp_path: Path) -> None:
     node = config.node('drive')
     assert config.master.sync_period == 0.0
     assert node.tpdo[0].transmission == 255  # explicit PDO without `transmission`
-    assert [(p.transmission, p.event_timer) for p in node.rpdo] == [(255, 0), (255, 0)]  # family default
+    assert [(p.transmission, p.event_timer) for p in node.rpdo] == [(255, 0)] * 3  # family default
     # a node with no axes section is one axis named after the node, with a warning about scaling
     assert [a.joint for a in node.axes] == ['drive']
     assert node.axes[0].scaling.position_factor == 1.0

@@ -25,6 +25,9 @@ class Generic402(DriveFamily):
     - RPDO 2k+2: target position, target velocity (64 bits)
     - TPDO 2k+1: statusword, modes of operation display, torque actual (40 bits)
     - TPDO 2k+2: position actual, velocity actual (64 bits)
+
+    A one-axis node also gets RPDO 3 with the interpolation data record 0x60C1:1, sent
+    only when written (linear interpolated position mode writes it every cycle).
     """
 
     name = 'generic_402'
@@ -57,4 +60,8 @@ class Generic402(DriveFamily):
                                        transmission=rx_type, mapping=rx_map))
                 tpdos.append(PdoConfig(number, predefined_cob_id('tpdo', number, node_id),
                                        transmission=tx_type, event_timer=timer, mapping=tx_map))
+        if len(axes) == 1:
+            ip_point = _entries(axes[0].slot, (obj.INTERPOLATION_DATA_RECORD, 32))
+            ip_point = tuple(PdoEntry(e.index, 1, e.bits) for e in ip_point)
+            rpdos.append(PdoConfig(3, predefined_cob_id('rpdo', 3, node_id), transmission=rx_type, mapping=ip_point))
         return tuple(rpdos), tuple(tpdos)
