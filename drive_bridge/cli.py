@@ -10,7 +10,7 @@ from drive_bridge.resources import shipped_config
 DEMO_ROS_ARGS = ['--ros-args', '-p', 'auto_enable:=true']
 
 
-def bridge_main(argv: list[str] | None = None) -> None:
+def bridge_main(argv: list[str] | None = None, managed: bool = False) -> None:
     """``bridge [CONFIG] [--ros-args ...]``: run the bus node; no CONFIG runs the demo
     (simulated drives on a virtual bus, enabled once booted)."""
     args = sys.argv[1:] if argv is None else argv
@@ -27,4 +27,9 @@ def bridge_main(argv: list[str] | None = None) -> None:
         # The demo must keep DDS on loopback unless the user chose otherwise.
         os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     from drive_bridge.ros.node import run  # imports rclpy: only after the environment is set
-    raise SystemExit(run(config, ['bridge', *ros_args]))
+    raise SystemExit(run(config, ['bridge', *ros_args], managed=managed))
+
+
+def bridge_managed_main(argv: list[str] | None = None) -> None:
+    """``bridge_managed``: the lifecycle node; configure boots the bus, activate starts it."""
+    bridge_main(argv, managed=True)

@@ -64,8 +64,9 @@ def in_workspace(ws: Path, command: str, domain_id: int, **kwargs):
 
 def test_both_packages_install_where_ros_tools_look(workspace: Path) -> None:
     install = workspace / 'install'
-    exe = install / 'drive_bridge' / 'lib' / 'drive_bridge' / 'bridge'
-    assert exe.is_file() and os.access(exe, os.X_OK)
+    for name in ('bridge', 'bridge_managed'):
+        exe = install / 'drive_bridge' / 'lib' / 'drive_bridge' / name
+        assert exe.is_file() and os.access(exe, os.X_OK), name
     share = install / 'drive_bridge' / 'share'
     assert (share / 'ament_index' / 'resource_index' / 'packages' / 'drive_bridge').is_file()
     assert (share / 'drive_bridge' / 'package.xml').is_file()

@@ -190,7 +190,7 @@ class Master:
 
     # -- cycle -------------------------------------------------------------------------------
     def _before_sync(self, cycle: int) -> None:
-        now = time.time()
+        now = self.sync.scheduled_time if self.sync is not None else time.time()
         for node in self.nodes.values():
             if not node.available:
                 continue

@@ -68,6 +68,10 @@ class SyncProducer:
         self.skipped = 0
         self.hook_errors = 0
         self.last_sync_time = 0.0
+        # epoch time this cycle's SYNC is scheduled for (the period grid, not when the
+        # thread woke up): set-points sampled against it are not shifted by wake-up jitter
+        self.scheduled_time = 0.0
+        self._epoch_offset = time.time() - time.perf_counter()
 
     def add_before_sync(self, hook: CycleHook) -> None:
         """Hook called with the cycle number before that cycle's SYNC is sent."""
@@ -118,6 +122,7 @@ class SyncProducer:
             if delay > 0 and self._stop.wait(delay):
                 break
             cycle = self.cycles
+            self.scheduled_time = deadline + self._epoch_offset
             self._call(self._before, cycle)
             hooks_done = time.perf_counter()
             if self.send_sync:

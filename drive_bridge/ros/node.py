@@ -11,6 +11,7 @@ from rclpy.node import Node
 
 from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
 from drive_bridge.config.model import BusConfig
+from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master
 from drive_bridge.ros.command_topics import CommandTopics
@@ -50,80 +51,84 @@ def load_config(params: BridgeParameters) -> BusConfig:
     return config
 
 
-class BusNode(Node):
-    """Bridges the drives of one bus into ROS (see README: topics, services, parameters)."""
+class Bridge:
+    """Everything one bus node does, for a plain or a lifecycle node: the master (and the
+    simulated drives), state topics, commands, services and the trajectory action."""
 
-    def __init__(self, config_path: str = '', *, node_name: str = 'drive_bridge', **kwargs) -> None:
-        super().__init__(node_name, **kwargs)
-        try:
-            self.params = declare(self)
-        except ParameterError as exc:
-            raise StartupError(str(exc)) from None
-        if not self.params.config and not self.params.config_yaml and config_path:
-            self.params = dataclasses.replace(self.params, config=config_path)
-        try:
-            self.config = load_config(self.params)
-        except ConfigError as exc:
-            raise StartupError(f'bus configuration refused:\n{exc}') from None
-        for warning in self.config.warnings:
-            self.get_logger().warning(f'configuration: {warning}')
+    def __init__(self, node: Node, params: BridgeParameters, config: BusConfig) -> None:
+        self.node = node
+        self.params = params
+        self.config = config
+        self._held: set[str] = set()  # joints halted by deactivation (resumed by activation)
+        for warning in config.warnings:
+            node.get_logger().warning(f'configuration: {warning}')
         self.simulation = None
-        if self.config.simulation.enabled:
+        if config.simulation.enabled:
             from drive_bridge.sim import SimulatedBus
-            self.simulation = SimulatedBus(self.config)
+            self.simulation = SimulatedBus(config)
             self.simulation.start()
-        self.master = Master(self.config)
+        existing = _entities(node)
+        self.master = Master(config)
         self.master.add_event_listener(self._log_event)
         self.master.start()
         self.trajectories = TrajectoryExecutor(
-            self.master.axes, cycle_period=self.config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
-            pvt_segment=self.params.pvt_segment, pvt_lookahead=self.params.pvt_lookahead)
+            self.master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
+            pvt_segment=params.pvt_segment, pvt_lookahead=params.pvt_lookahead)
         self.master.add_cycle_listener(self.trajectories.check)
         self.master.add_emcy_listener(self.trajectories.on_emcy)
-        self.state_topics = StateTopics(self, self.master, self.params)
-        self.command_topics = CommandTopics(self, self.master, self.trajectories, self.params)
-        self.service_handlers = BridgeServices(self, self.master, self.trajectories)
-        self.trajectory_action = TrajectoryAction(self, self.master, self.trajectories)
+        self.state_topics = StateTopics(node, self.master, params)
+        self.command_topics = CommandTopics(node, self.master, self.trajectories, params)
+        self.service_handlers = BridgeServices(node, self.master, self.trajectories)
+        self.trajectory_action = TrajectoryAction(node, self.master, self.trajectories)
         self.state_topics.attach()
-        self.set_active(True)
-        bus = self.config.bus
-        sync = self.config.master.sync_period
-        self.get_logger().info(
+        self._entities = [e for e in _entities(node) if id(e) not in {id(x) for x in existing}]
+        self.set_active(False)
+        bus = config.bus
+        sync = config.master.sync_period
+        node.get_logger().info(
             f'bus {bus.interface}:{bus.channel} open with {len(self.master.nodes)} node(s), '
             f'{len(self.master.axes)} joint(s); SYNC {"every %.1f ms" % (sync * 1000) if sync else "off"}'
             f'{"; simulated drives" if self.simulation else ""}')
-        if self.params.auto_enable:
-            threading.Thread(target=self._auto_enable, daemon=True, name='drive_bridge-auto-enable').start()
 
     def set_active(self, active: bool) -> None:
-        """Active: publish state and accept commands. Inactive: stop accepting, halt motion."""
-        self.state_topics.active = active
-        self.command_topics.active = active
-        self.service_handlers.active = active
-        self.trajectory_action.active = active
-        if not active:
-            self.trajectories.stop(list(self.master.axes), 'bridge deactivated')
-            for axis in self.master.axes.values():
+        """Active: publish state and accept commands. Inactive: halt motion (HALT bit), stop
+        accepting commands; the drives stay enabled and report their state."""
+        for part in (self.state_topics, self.command_topics, self.service_handlers, self.trajectory_action):
+            part.active = active
+        if active:
+            for joint in sorted(self._held):
+                axis = self.master.axes[joint]
                 if axis.node.available:
-                    axis.halt(True)
+                    axis.halt(False)
+            self._held.clear()
+            if self.params.auto_enable:
+                threading.Thread(target=self._auto_enable, daemon=True, name='drive_bridge-auto-enable').start()
+            return
+        self.trajectories.stop(list(self.master.axes), 'bridge deactivated', smooth=True)
+        for joint, axis in self.master.axes.items():
+            if axis.node.available and axis.state is State.OPERATION_ENABLED and not axis.snapshot().halted:
+                axis.halt(True)
+                self._held.add(joint)
 
     def _log_event(self, event: BusEvent) -> None:
-        logger = self.get_logger()
+        logger = self.node.get_logger()
         {Level.INFO: logger.info, Level.WARN: logger.warning, Level.ERROR: logger.error}[event.level](event.message)
 
     def _auto_enable(self) -> None:
         try:
             self.master.wait_until_operational(AUTO_ENABLE_TIMEOUT)
         except TimeoutError as exc:
-            self.get_logger().error(f'auto_enable: {exc}')
-        for axis in self.master.axes.values():
-            if not axis.node.available:
-                continue
+            self.node.get_logger().error(f'auto_enable: {exc}')
+        failed = []
+        for joint, axis in self.master.axes.items():
             try:
                 axis.enable()
             except Exception as exc:
-                self.get_logger().error(f'auto_enable: {exc}')
-        self.get_logger().info('auto_enable: done')
+                failed.append(joint)
+                self.node.get_logger().error(f'auto_enable: {exc}')
+        enabled = [j for j in self.master.axes if j not in failed]
+        self.node.get_logger().info(f'auto_enable: enabled {", ".join(enabled) or "none"}'
+                                    + (f'; failed {", ".join(failed)}' if failed else ''))
 
     def close(self) -> None:
         """Stop motion safely and release the bus (and the simulated drives)."""
@@ -134,13 +139,69 @@ class BusNode(Node):
             self.simulation.stop()
         self.service_handlers.pool.shutdown(wait=False, cancel_futures=True)
         self.service_handlers.joint_pool.shutdown(wait=False, cancel_futures=True)
+        self.trajectory_action.server.destroy()
+        for entity in self._entities:  # a lifecycle node may configure again
+            for kind in ('publisher', 'subscription', 'service', 'timer'):
+                if entity in list(getattr(self.node, f'{kind}s')):
+                    getattr(self.node, f'destroy_{kind}')(entity)
 
 
-def run(config_path: str, args: list[str]) -> int:
-    """Spin a bus node until Ctrl-C; returns the process exit code."""
+def _entities(node: Node) -> list:
+    return [*node.publishers, *node.subscriptions, *node.services, *node.timers]
+
+
+def declare_and_load(node: Node, config_path: str) -> tuple[BridgeParameters, BusConfig]:
+    """The node's validated parameters and bus configuration (StartupError says what is wrong)."""
+    try:
+        params = declare(node)
+    except ParameterError as exc:
+        raise StartupError(str(exc)) from None
+    return params, configuration(params, config_path)
+
+
+def configuration(params: BridgeParameters, config_path: str) -> BusConfig:
+    if not params.config and not params.config_yaml and config_path:
+        params = dataclasses.replace(params, config=config_path)
+    try:
+        return load_config(params)
+    except ConfigError as exc:
+        raise StartupError(f'bus configuration refused:\n{exc}') from None
+
+
+class BusNode(Node):
+    """Bridges the drives of one bus into ROS, active from the start (see README)."""
+
+    def __init__(self, config_path: str = '', *, node_name: str = 'drive_bridge', **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self.params, config = declare_and_load(self, config_path)
+        self.bridge = Bridge(self, self.params, config)
+        self.bridge.set_active(True)
+
+    @property
+    def master(self) -> Master:
+        return self.bridge.master
+
+    @property
+    def simulation(self):
+        return self.bridge.simulation
+
+    @property
+    def trajectories(self) -> TrajectoryExecutor:
+        return self.bridge.trajectories
+
+    def close(self) -> None:
+        self.bridge.close()
+
+
+def run(config_path: str, args: list[str], managed: bool = False) -> int:
+    """Spin a bus node (or its lifecycle variant) until Ctrl-C; returns the exit code."""
     rclpy.init(args=args)
     try:
-        node = BusNode(config_path)
+        if managed:
+            from drive_bridge.ros.lifecycle import BusLifecycleNode
+            node = BusLifecycleNode(config_path)
+        else:
+            node = BusNode(config_path)
     except StartupError as exc:
         rclpy.logging.get_logger('drive_bridge').fatal(str(exc))
         rclpy.try_shutdown()

@@ -1,0 +1,20 @@
+"""``python -m bench [tracking] [options]``: run a benchmark and print its table."""
+from __future__ import annotations
+
+import os
+import sys
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+BENCHMARKS = {'tracking': 'bench.tracking'}
+
+
+def main() -> None:
+    args = sys.argv[1:]
+    name = args.pop(0) if args and args[0] in BENCHMARKS else 'tracking'
+    module = __import__(BENCHMARKS[name], fromlist=['main'])
+    module.main(args)
+
+
+if __name__ == '__main__':
+    main()

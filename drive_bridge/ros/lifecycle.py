@@ -1,0 +1,66 @@
+"""The managed (lifecycle) bus node: a stack can boot the drives without enabling motion.
+
+configure  = load the configuration, open the bus, boot the nodes (no axis is enabled)
+activate   = publish state, accept commands and services (auto_enable enables here)
+deactivate = halt motion (HALT bit, trajectories stopped with a deceleration), refuse commands
+cleanup    = quick-stop enabled axes, close the bus
+"""
+from __future__ import annotations
+
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+
+from drive_bridge.ros.node import Bridge, StartupError, configuration
+from drive_bridge.ros.parameters import ParameterError, declare
+
+
+class BusLifecycleNode(LifecycleNode):
+    """The bus node with the standard lifecycle (~/change_state, ~/get_state)."""
+
+    def __init__(self, config_path: str = '', *, node_name: str = 'drive_bridge', **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self.config_path = config_path
+        self.bridge: Bridge | None = None
+        self.params = None
+        try:
+            self.params = declare(self)
+        except ParameterError as exc:
+            self.get_logger().error(str(exc))  # configure will fail and say so again
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        if self.params is None:
+            self.get_logger().error('cannot configure: the parameters are invalid (see above)')
+            return TransitionCallbackReturn.FAILURE
+        try:
+            self.bridge = Bridge(self, self.params, configuration(self.params, self.config_path))
+        except StartupError as exc:
+            self.get_logger().error(f'cannot configure: {exc}')
+            return TransitionCallbackReturn.FAILURE
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.bridge.set_active(True)
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.bridge.set_active(False)
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _release(self) -> None:
+        if self.bridge is not None:
+            self.bridge.close()
+            self.bridge = None
+
+    def close(self) -> None:
+        self._release()
