@@ -4,11 +4,10 @@ from __future__ import annotations
 import copy
 import itertools
 import os
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import yaml
 
@@ -16,11 +15,11 @@ from drive_bridge.config import parse_bus_config
 from drive_bridge.config.model import BusConfig
 from drive_bridge.master.master import Master
 from drive_bridge.sim import SimulatedBus
+from rostools import wait_for as eventually  # noqa: F401  (one polling helper for all tests)
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / 'config' / 'demo.yaml'
 _channels = itertools.count()
-T = TypeVar('T')
 
 
 def unique_channel(prefix: str = 'test') -> str:
@@ -52,15 +51,3 @@ def running(config: BusConfig, boot_timeout: float = 10.0, wait: bool = True) ->
     finally:
         master.stop()
         sim.stop()
-
-
-def eventually(check: Callable[[], T | None], timeout: float, what: str, period: float = 0.005) -> T:
-    """Poll until ``check`` returns a truthy value; fail naming ``what``."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = check()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise AssertionError(f'timed out after {timeout} s waiting for {what}')
-        time.sleep(period)

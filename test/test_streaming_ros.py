@@ -163,3 +163,18 @@ def test_interpolated_position_linear_follows_the_path(ros, bridge) -> None:
     assert sim_axis.ip.overflows == 0
     final = dict(zip(states[-1].name, states[-1].position))['base_joint']
     assert final == pytest.approx(here + 0.3, abs=2e-3)
+
+
+def test_diagnostics_report_sync_timing_and_setpoint_lead(ros, bridge) -> None:
+    from diagnostic_msgs.msg import DiagnosticArray
+    reports: list[DiagnosticArray] = []
+    ros.node('diag_watch').create_subscription(DiagnosticArray, '/diagnostics', reports.append, 10)
+    report = wait_for(lambda: next((r for r in reversed(reports) if r.status), None), 5, 'diagnostics')
+    bus = next(s for s in report.status if s.name.startswith('drive_bridge: bus'))
+    values = {kv.key: kv.value for kv in bus.values}
+    assert values['sync_period'] == '4.00 ms'
+    lead = float(values['setpoint_lead_median'].split()[0])
+    assert 0.0 < lead < 4.0  # ms: the RPDOs go out before the SYNC that latches them
+    assert float(values['frames_per_second']) > 500
+    for key in ('sync_interval_p99', 'sync_jitter_max', 'setpoint_lead_max', 'sync_skipped', 'bus_load'):
+        assert key in values
