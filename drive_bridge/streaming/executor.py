@@ -150,7 +150,7 @@ class TrajectoryExecutor:
             feeder = self._feeders.get(joint)
             if feeder is None:
                 feeder = PvtFeeder(lambda t: self.desired(joint, t), lambda: self._end_of(joint),
-                                   self.pvt_segment, self.pvt_lookahead)
+                                   self.pvt_segment, self.pvt_lookahead, lead=self.cycle_period)
                 self._feeders[joint] = feeder
             feeder.start(start)
             axis.set_buffer_feeder(feeder)

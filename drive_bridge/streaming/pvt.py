@@ -36,19 +36,29 @@ class PvtStats:
 
 
 class PvtFeeder:
-    """One joint's PVT stream; installed on its axis with Axis.set_buffer_feeder."""
+    """One joint's PVT stream; installed on its axis with Axis.set_buffer_feeder.
 
-    def __init__(self, desired: DesiredFn, end: EndFn, segment: float, lookahead: float) -> None:
+    Point times are kept in whole ms from the motion's start (the drive's unit), so the
+    last segment ends exactly at the trajectory's end.
+    """
+
+    def __init__(self, desired: DesiredFn, end: EndFn, segment: float, lookahead: float,
+                 lead: float = 0.0) -> None:
         if segment <= 0 or abs(segment * 1000 - round(segment * 1000)) > 1e-9:
             raise ValueError(f'PVT segment time must be a positive whole number of ms, got {segment * 1000:g} ms')
         self.desired = desired
         self.end = end
-        self.segment = segment
+        self.segment_ms = round(segment * 1000)
         self.lookahead = max(lookahead, segment)
-        self.next_time: float | None = None  # trajectory time of the next point to push
-        self.last_time: float | None = None  # time of the last point pushed
+        self.lead = lead  # a point written now reaches the drive at the next SYNC, this much later
+        self.motion_start = 0.0
+        self.offset_ms = 0  # ms from the motion start of the last point pushed
         self.ended = True  # no motion in progress (the time-0 end point was sent)
         self.stats = PvtStats()
+
+    @property
+    def last_time(self) -> float:
+        return self.motion_start + self.offset_ms / 1000.0
 
     @property
     def horizon(self) -> float | None:
@@ -56,16 +66,18 @@ class PvtFeeder:
         return None if self.ended else self.last_time
 
     def start(self, t: float) -> None:
-        """A (new) motion begins at t; points continue after what is already committed."""
-        if self.ended or self.last_time is None:
-            self.next_time = t + self.segment
-            self.last_time = t
-        self.ended = False
+        """A motion begins at t; a running one continues (its points are in the drive)."""
+        if self.ended:
+            self.motion_start, self.offset_ms = t, 0
+            self.ended = False
 
     def on_cycle(self, now: float, axis: Axis) -> None:
-        if self.ended or self.next_time is None or self.last_time is None:
+        if self.ended:
             return
-        if self.last_time > now + self.lookahead:
+        if self.offset_ms == 0:
+            if now + self.lead < self.motion_start:
+                return  # the drive runs a segment as soon as it has it: not before the start
+        elif self.last_time > now + self.lookahead:
             return  # enough queued
         free = axis.interpolation_free_slots()
         if free is not None:
@@ -74,23 +86,23 @@ class PvtFeeder:
             self.stats.waits_for_space += 1
             return
         end = self.end()
-        if end is not None and self.last_time >= end - 1e-9:
+        end_ms = None if end is None else max(0, math.ceil((end - self.motion_start) * 1000 - 1e-6))
+        if end_ms is not None and self.offset_ms >= end_ms:
             position, _velocity = self._point(axis, self.last_time)
             axis.push_interpolation_point(position=position, time_ms=0, velocity=0)  # time 0: end of motion
             self.ended = True
             self.stats.motions += 1
             return
-        t = self.next_time if end is None else min(self.next_time, end)
-        duration_ms = round((t - self.last_time) * 1000)
-        if duration_ms <= 0:  # a final piece shorter than 1 ms joins the end point
-            t, duration_ms = self.last_time, 0
+        offset = self.offset_ms + self.segment_ms
+        if end_ms is not None:
+            offset = min(offset, end_ms)
+        t = self.motion_start + offset / 1000.0
         position, velocity = self._point(axis, t)
         if t < now:
             self.stats.late_points += 1
-        axis.push_interpolation_point(position=position, time_ms=duration_ms, velocity=velocity)
+        axis.push_interpolation_point(position=position, time_ms=offset - self.offset_ms, velocity=velocity)
         self.stats.points += 1
-        self.last_time = t
-        self.next_time = t + self.segment
+        self.offset_ms = offset
 
     def _point(self, axis: Axis, t: float) -> tuple[int, int]:
         """(position counts, velocity counts/s) of the desired trajectory at t."""
