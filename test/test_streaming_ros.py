@@ -161,8 +161,8 @@ def test_interpolated_position_linear_follows_the_path(ros, bridge) -> None:
     time.sleep(1.8)
     assert sim_axis.mode == 7 and sim_axis.statusword & 0x1000  # IP active on the drive
     assert sim_axis.ip.overflows == 0
-    final = dict(zip(states[-1].name, states[-1].position))['base_joint']
-    assert final == pytest.approx(here + 0.3, abs=2e-3)
+    wait_for(lambda: abs(dict(zip(states[-1].name, states[-1].position))['base_joint'] - (here + 0.3)) < 2e-3,
+             3, 'the goal in IP mode')
 
 
 def test_diagnostics_report_sync_timing_and_setpoint_lead(ros, bridge) -> None:

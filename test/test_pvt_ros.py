@@ -1,0 +1,143 @@
+"""PVT streaming through ROS against a simulated Kollmorgen AKD (config/akd_pvt_example.yaml):
+the buffer is kept fed and never overflows, a starved stream underflows and is held, a
+replacement splices and an empty trajectory decelerates to a stop."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+from builtin_interfaces.msg import Duration
+from drive_bridge_interfaces.action import FollowJointTrajectory
+from drive_bridge_interfaces.msg import Emcy
+from rclpy.action import ActionClient
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from bustools import unique_channel
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.ros.node import BusNode
+from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
+from rostools import RosHarness, wait_for
+
+NS = '/drive_bridge'
+CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'akd_pvt_example.yaml'
+JOINT = 'joint1'
+
+
+@pytest.fixture
+def bridge(ros: RosHarness):
+    data = yaml.safe_load(CONFIG.read_text())
+    data['bus']['channel'] = unique_channel('akd')
+    node = BusNode(context=ros.context, parameter_overrides=[
+        Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)),
+        Parameter('auto_enable', value=True)])
+    ros.add(node)
+    node.master.wait_until_operational(10.0)
+    axis = node.master.axes[JOINT]
+    wait_for(lambda: axis.state is State.OPERATION_ENABLED, 10, 'enabled')
+    axis.set_mode('ip', timeout=3.0)
+    assert node.trajectories.strategy(JOINT) == 'pvt'
+    yield node
+    node.close()
+
+
+def point(t: float, positions, velocities=()) -> JointTrajectoryPoint:
+    return JointTrajectoryPoint(positions=list(positions), velocities=list(velocities),
+                                time_from_start=Duration(sec=int(t), nanosec=round((t % 1) * 1e9)))
+
+
+def recorders(ros: RosHarness):
+    states: list[JointState] = []
+    emcys: list[Emcy] = []
+    node = ros.node(f'pvt_watch_{time.monotonic_ns() % 100000}')
+    node.create_subscription(JointState, '/joint_states', states.append, 1000)
+    node.create_subscription(Emcy, f'{NS}/emcy', emcys.append, 100)
+    publisher = node.create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
+    wait_for(lambda: states, 5, 'joint states')
+    time.sleep(0.2)  # discovery of the publisher
+    return states, emcys, publisher
+
+
+def position_of(msg: JointState) -> float:
+    return dict(zip(msg.name, msg.position))[JOINT]
+
+
+def test_pvt_follows_the_path_and_never_overflows_the_buffer(ros, bridge) -> None:
+    states, emcys, publisher = recorders(ros)
+    here = position_of(states[-1])
+    start = time.time() + 0.3
+    msg = JointTrajectory(joint_names=[JOINT], points=[point(0.6, [here + 0.8], [1.5]),
+                                                       point(1.2, [here + 1.2], [0.0])])
+    msg.header.stamp = stamp_from_seconds(start)
+    publisher.publish(msg)
+    time.sleep(1.9)
+    ideal = joint_splines(Trajectory((JOINT,), (TrajectoryPoint(0.6, (here + 0.8,), (1.5,)),
+                                                TrajectoryPoint(1.2, (here + 1.2,), (0.0,)))),
+                          start, {JOINT: JointSample(here, 0.0, 0.0)})[JOINT]
+    errors = [abs(position_of(m) - ideal.sample(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9).position)
+              for m in states if start <= m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 <= start + 1.2]
+    assert len(errors) > 100
+    assert max(errors) < 0.03, max(errors)  # rad, at up to 2 rad/s: cubic segments + one SYNC of timing
+    wait_for(lambda: abs(position_of(states[-1]) - (here + 1.2)) < 1e-3, 3, 'the goal')
+    feeder = bridge.trajectories.feeder(JOINT)
+    assert feeder.stats.points > 100 and feeder.stats.motions == 1
+    assert feeder.stats.min_free >= 1  # the buffer never filled up
+    assert not [e for e in emcys if e.error_code in (0x8584, 0x8585)]  # no overflow, no underflow
+
+
+def test_a_starved_stream_underflows_and_the_axis_is_held(ros, bridge) -> None:
+    states, emcys, publisher = recorders(ros)
+    client = ActionClient(ros.node('pvt_action'), FollowJointTrajectory, f'{NS}/follow_joint_trajectory')
+    assert client.wait_for_server(timeout_sec=10)
+    here = position_of(states[-1])
+    goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[JOINT], points=[
+        point(2.0, [here + 2.0])]))
+    sent = client.send_goal_async(goal)
+    handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal accepted')
+    result_future = handle.get_result_async()
+    time.sleep(0.6)
+    drive = bridge.simulation.drive(1)
+    drive.drop_rpdos(True)  # the stream starves: no more points reach the drive
+    underflow = wait_for(lambda: next((e for e in emcys if e.error_code == 0x8585), None), 3, 'EMCY 0x8585')
+    assert underflow.node_id == 1 and underflow.joint_name == JOINT
+    assert 'underflow' in underflow.text.lower()
+    result = wait_for(lambda: result_future.result() if result_future.done() else None, 5, 'result').result
+    assert result.error_code == FollowJointTrajectory.Result.PATH_TOLERANCE_VIOLATED
+    assert '0x8585' in result.error_string and 'held' in result.error_string
+    drive.drop_rpdos(False)
+    snapshot = bridge.master.axes[JOINT].snapshot()
+    assert snapshot.halted and snapshot.state is State.OPERATION_ENABLED
+    wait_for(lambda: drive.axis(0).controlword & 0x100, 2, 'HALT on the drive')
+    held = position_of(states[-1])
+    time.sleep(0.3)
+    assert position_of(states[-1]) == pytest.approx(held, abs=1e-4)  # holding, not drifting
+    assert here + 0.1 < held < here + 2.0
+
+
+def test_pvt_replacement_splices_and_an_empty_trajectory_decelerates(ros, bridge) -> None:
+    states, emcys, publisher = recorders(ros)
+    axis = bridge.master.axes[JOINT]
+    here = position_of(states[-1])
+    publisher.publish(JointTrajectory(joint_names=[JOINT], points=[point(2.0, [here + 3.0])]))
+    time.sleep(0.7)
+    publisher.publish(JointTrajectory(joint_names=[JOINT], points=[point(1.0, [here + 0.5])]))
+    time.sleep(1.4)
+    wait_for(lambda: abs(position_of(states[-1]) - (here + 0.5)) < 1e-3, 3, 'the replacement goal')
+    velocities = [abs(dict(zip(m.name, m.velocity))[JOINT]) for m in states[-400:]]
+    assert max(velocities) < 3.0  # the splice had no jump
+
+    publisher.publish(JointTrajectory(joint_names=[JOINT], points=[point(2.0, [here - 2.5])]))
+    wait_for(lambda: abs(axis.snapshot().velocity) > 1.0, 3, 'moving')
+    publisher.publish(JointTrajectory(joint_names=[JOINT]))
+    speeds = []
+    for _ in range(20):
+        speeds.append(abs(axis.snapshot().velocity))
+        time.sleep(0.01)
+    assert speeds[3] > 0.2, 'stopped at once instead of decelerating'
+    wait_for(lambda: abs(axis.snapshot().velocity) < 1e-3, 5, 'standstill')
+    assert bridge.trajectories.feeder(JOINT).ended  # the motion was closed with a time-0 point
+    assert not [e for e in emcys if e.error_code in (0x8584, 0x8585)]
