@@ -5,6 +5,7 @@ The bridge reaches them only through CAN frames; tests may inspect their state.
 - :class:`SimulatedBus` -- every node of a :class:`~drive_bridge.config.model.BusConfig`
 - :class:`SimulatedSlave` -- a CiA 301 node (family ``generic_301``)
 - :class:`SimDrive402` -- a CiA 402 drive with 1..N axes (family ``generic_402``)
+- :class:`SimAkd` -- a Kollmorgen AKD with PVT interpolation and the AKD's quirks (family ``akd``)
 - :func:`simulator_for` / :func:`register_simulator` -- family name -> simulator class
 - :mod:`drive_bridge.sim.testing` -- test-side master helpers (SimBench, FrameLog, SyncLoop)
 - ``python -m drive_bridge.sim.bench`` -- per-SYNC cost of one simulated drive
@@ -13,7 +14,8 @@ Modules: slave (CiA 301 node), sdo (SDO server access), pdo (PDO engine), nmt (N
 states, heartbeat consumer), emcy (EMCY, 0x1001, 0x1003), store (typed OD values),
 timers (per-slave clock thread), faults (fault-injection switches), options
 (simulation options), axis402 (402 state machine), opmodes (modes of operation),
-ipbuffer (IP buffer), motion (pure motion model), drive402, registry, bus.
+ipbuffer (IP buffer), motion (pure motion model), drive402, akd (Kollmorgen AKD),
+registry, bus.
 """
 from drive_bridge.sim.axis402 import Axis402
 from drive_bridge.sim.bus import SimulatedBus
@@ -21,6 +23,7 @@ from drive_bridge.sim.drive402 import SimDrive402
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS
 from drive_bridge.sim.registry import register_simulator, simulated_families, simulator_for
 from drive_bridge.sim.slave import SimulatedSlave
+from drive_bridge.sim.akd import SimAkd  # noqa: E402  (registers the 'akd' family's simulator)
 
-__all__ = ['AXIS_OPTIONS', 'Axis402', 'SLAVE_OPTIONS', 'SimDrive402', 'SimulatedBus', 'SimulatedSlave',
+__all__ = ['AXIS_OPTIONS', 'Axis402', 'SLAVE_OPTIONS', 'SimAkd', 'SimDrive402', 'SimulatedBus', 'SimulatedSlave',
            'register_simulator', 'simulated_families', 'simulator_for']

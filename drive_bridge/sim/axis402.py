@@ -95,7 +95,7 @@ class Axis402:
         self.dp, self.dv, self.dtorque = self.p, 0.0, 0.0
         self.state = State.NOT_READY_TO_SWITCH_ON
         self.controlword = 0
-        self.mode_impl: OpMode = make_mode(Mode.NO_MODE)
+        self.mode_impl: OpMode = self._make_mode(Mode.NO_MODE)
         self.fault_code = 0
         self.persistent_fault = False
         self.persistent_code = 0
@@ -254,10 +254,14 @@ class Axis402:
         if code != self.mode_impl.code and not self.supports(code):
             raise SdoAbortedError(ABORT_VALUE_RANGE)
 
+    def _make_mode(self, code: int) -> OpMode:
+        """A fresh mode object for ``code`` (device models may bring their own modes)."""
+        return make_mode(code)
+
     def _set_mode(self, code: int) -> None:
         if code == self.mode_impl.code:
             return
-        self.mode_impl = make_mode(code)
+        self.mode_impl = self._make_mode(code)
         if self.state is State.OPERATION_ENABLED:
             self._enter_mode()
 
@@ -454,7 +458,7 @@ class Axis402:
         self.halted = False
         self._stop = None
         self.fe_active, self._fe_time, self._limited = False, 0.0, False
-        self.mode_impl = make_mode(self._values.get(self.key(obj.MODES_OF_OPERATION), Mode.NO_MODE))
+        self.mode_impl = self._make_mode(self._values.get(self.key(obj.MODES_OF_OPERATION), Mode.NO_MODE))
         self.ip.reset()
         self.dp, self.dv, self.dtorque = self.p, self.v, 0.0
         self._cache = None

@@ -20,12 +20,13 @@ class SimDrive402(SimulatedSlave):
     """A CiA 402 drive; ``axis(k)`` is the axis whose objects sit at index + 0x800*k."""
 
     OPTIONS: dict[str, OptionSpec] = {**SLAVE_OPTIONS, **AXIS_OPTIONS}
+    AXIS_CLASS: type[Axis402] = Axis402  # device models may bring their own axis behaviour
 
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
         super().__init__(node, options=options)
         count = self._axis_count(node)
         self.axes: tuple[Axis402, ...] = tuple(
-            Axis402(self, slot, {name: self.options[name][slot] for name in AXIS_OPTIONS})
+            self.AXIS_CLASS(self, slot, {name: self.options[name][slot] for name in AXIS_OPTIONS})
             for slot in range(count))
 
     @staticmethod

@@ -177,7 +177,7 @@ class PdoEngine:
         pdo = self._by_index[index]
         values = self._store.values
         cob = values[key(pdo.comm, 1)]
-        valid = not cob & COB_INVALID
+        valid = self._locked(pdo, cob)
         if index == pdo.comm:
             if subindex == 1:
                 if value & COB_EXTENDED:
@@ -218,6 +218,11 @@ class PdoEngine:
             raise _abort(ABORT_UNSUPPORTED_ACCESS_STATE)
         if value != 0:
             self._check_entry(pdo, value)
+
+    def _locked(self, pdo: Pdo, cob: int) -> bool:
+        """Whether the PDO's COB-ID, mapping, inhibit time and SYNC start value are locked
+        against changes (CiA 301: while the PDO is valid). Device models may relax it."""
+        return not cob & COB_INVALID
 
     def _check_entry(self, pdo: Pdo, entry: int) -> ODVariable:
         index, sub, bits = entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
@@ -391,7 +396,7 @@ class PdoEngine:
 
     def _send_event(self, pdo: Pdo, now: float, force: bool) -> None:
         data = self._pack(pdo)
-        if not force and data == pdo.last_data:
+        if not force and not self._has_changed(pdo, data):
             return
         if pdo.inhibit and pdo.last_data is not None and now < pdo.last_time + pdo.inhibit:
             if pdo.deferred is None:
@@ -399,6 +404,11 @@ class PdoEngine:
                                                     lambda: self._on_deferred(pdo))
             return
         self._emit(pdo, data, now)
+
+    def _has_changed(self, pdo: Pdo, data: bytes) -> bool:
+        """Whether an event-driven TPDO's data changed enough to be sent (device models may
+        filter, e.g. by change masks)."""
+        return data != pdo.last_data
 
     def _on_deferred(self, pdo: Pdo) -> None:
         with self._lock:

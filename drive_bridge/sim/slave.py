@@ -90,6 +90,8 @@ class SimulatedSlave(CommFaultInjection):
     """
 
     OPTIONS: dict[str, OptionSpec] = SLAVE_OPTIONS
+    PDO_ENGINE: type[PdoEngine] = PdoEngine  # device models may bring their own PDO rules
+    EMCY_PRODUCER: type[EmcyProducer] = EmcyProducer  # ... and their own EMCY frame layout
 
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
         self.node = node
@@ -110,8 +112,8 @@ class SimulatedSlave(CommFaultInjection):
         self._validators: dict[int, Callable[[Any], None]] = {}
         self._effects: dict[int, Callable[[Any], None]] = {}
         self._early: set[int] = set()
-        self.emcy = EmcyProducer(self.store, self._send_emcy)
-        self.pdo = PdoEngine(self.store, lock=self._lock, timers=self._timers, send=self._send,
+        self.emcy = self.EMCY_PRODUCER(self.store, self._send_emcy)
+        self.pdo = self.PDO_ENGINE(self.store, lock=self._lock, timers=self._timers, send=self._send,
                              write_many=self._write_many,
                              subscribe=self._subscribe, unsubscribe=self._unsubscribe,
                              rpdo_allowed=self._rpdo_allowed, tpdo_allowed=self._tpdo_allowed,

@@ -25,6 +25,7 @@ from drive_bridge.sim.slave import NOTIFIER_CYCLE, SimulatedSlave
 
 GENERIC402_EDS = DATA_DIR / 'generic402.eds'
 GENERIC402_2AXIS_EDS = DATA_DIR / 'generic402_2axis.eds'
+AKD_EDS = DATA_DIR / 'akd.eds'
 SYNC_COB_ID = 0x080
 
 _channels = itertools.count()
