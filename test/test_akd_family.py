@@ -187,3 +187,31 @@ def test_bridge_boots_the_example_and_feeds_pvt_places_from_tpdo() -> None:
         snapshot = master.snapshot()
         assert snapshot.nodes[0].sdo_errors == 0 and snapshot.nodes[0].emcy == ()
 
+
+
+def test_akd_mode_defaults_and_refused_modes(tmp_path: Path) -> None:
+    config = load_yaml(tmp_path, """
+        nodes:
+          akd: {node_id: 3, family: akd, axes: [{joint: a, scaling: {counts_per_revolution: 1048576}}]}
+    """)
+    axis = config.node('akd').axes[0]
+    # the AKD has no csv/cst: its defaults are ip for position, pv for velocity, pt for effort
+    assert (axis.mode, axis.position_mode, axis.velocity_mode, axis.effort_mode) == (7, 7, 3, 4)
+    with pytest.raises(Exception) as caught:
+        load_yaml(tmp_path, """
+            nodes:
+              akd: {node_id: 3, family: akd, axes: [{joint: a, velocity_mode: csv}]}
+        """)
+    assert "nodes.akd.axes[0].velocity_mode: family 'akd' does not accept mode csv " \
+           "(it takes pp, pv, pt, hm, ip, csp), got 'csv'" in str(caught.value)
+
+
+def test_the_bridge_switches_an_akd_to_modes_its_0x6502_omits() -> None:
+    data = yaml.safe_load(EXAMPLE.read_text())
+    data['bus']['channel'] = unique_channel('akd-modes')
+    with running(parse_bus_config(data, 'akd example', EXAMPLE.parent)) as (master, _sim):
+        axis = master.axes['joint1']
+        axis.enable(timeout=3.0)
+        for mode, code in (('pt', 4), ('csp', 8), ('ip', 7)):  # 0x6502 = 0x65 lists neither pt nor csp
+            axis.set_mode(mode, timeout=3.0)
+            assert axis.snapshot().mode == code

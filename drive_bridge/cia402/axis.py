@@ -113,7 +113,8 @@ class AxisSnapshot:
 class Axis:
     """A CiA 402 axis of one node slot, mapped to one joint."""
 
-    def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float = 0.004) -> None:
+    def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float = 0.004,
+                 accepted_modes: frozenset[int] | None = None) -> None:
         self.node = node
         self.config = config
         self.timeouts = timeouts
@@ -154,7 +155,8 @@ class Axis:
         self._controlword = 0
         self._message = ''
         self._reset_emcy_count = 0
-        self.supported_modes: int | None = None
+        self.supported_modes: int | None = None  # 0x6502, read on the first mode change
+        self.accepted_modes = accepted_modes  # the drive family's list, when 0x6502 under-reports
         node.add_input_listener(self._on_input)
 
     # -- bus side ---------------------------------------------------------------------------
@@ -379,6 +381,12 @@ class Axis:
         self._reset_emcy_count = len(self.node.emcy_history())
 
     def _check_supported(self, mode: int) -> None:
+        if self.accepted_modes is not None:
+            if mode not in self.accepted_modes:
+                names = ', '.join(mode_name(m) for m in sorted(self.accepted_modes))
+                raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not accepted by this drive family '
+                                f'(it takes {names})')
+            return
         if self.supported_modes is None and self.node.has_object(*self.key['supported_modes']):
             self.supported_modes = int(self.node.sdo_read(*self.key['supported_modes']))  # type: ignore[arg-type]
         if self.supported_modes is None or mode < 0 or Mode(mode) not in SUPPORT_BITS:

@@ -51,8 +51,9 @@ def _joint(issues: Issues, value: Any, loc: Loc) -> str | None:
     return name
 
 
-def _mode(sec: Section, key: str) -> int:
+def _mode(sec: Section, key: str, family: DriveFamily) -> int:
     default, allowed = _MODE_KINDS[key]
+    default = family.default_modes.get(key, default)
     fallback = int(parse_mode(default))
     if key not in sec:
         return fallback
@@ -71,12 +72,17 @@ def _mode(sec: Section, key: str) -> int:
         sec.issues.error(sec.loc(key), f'expected a {kind} mode ({names}) or a manufacturer mode (< 0), '
                                        f'got {shown}')
         return fallback
+    if family.accepted_modes is not None and code not in family.accepted_modes:
+        names = ', '.join(mode_name(m) for m in sorted(family.accepted_modes))
+        sec.issues.error(sec.loc(key), f"family '{family.name}' does not accept mode {mode_name(code)} "
+                                       f'(it takes {names}), got {describe(raw)}')
+        return fallback
     return int(code)
 
 
-def _modes(sec: Section) -> dict[str, Any]:
-    """AxisConfig's mode keyword arguments."""
-    return {key: _mode(sec, key) for key in _MODE_KINDS}
+def _modes(sec: Section, family: DriveFamily) -> dict[str, Any]:
+    """AxisConfig's mode keyword arguments (the family's defaults where a key is absent)."""
+    return {key: _mode(sec, key, family) for key in _MODE_KINDS}
 
 
 def _limits(sec: Section | None) -> AxisLimits:
@@ -126,7 +132,7 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     joint = _joint(issues, sec.get('joint'), sec.loc('joint')) if sec.require('joint', 'a joint name') else None
     slot = sec.get_int('slot', position, lo=0, hi=obj.MAX_AXES - 1)
     joint_type: JointType = sec.get_str('type', 'revolute', choices=('revolute', 'prismatic'))  # type: ignore[assignment]
-    modes = _modes(sec)
+    modes = _modes(sec, family)
     scaling_section = sec.section('scaling')
     if scaling_section is not None:
         scaling_section.check_keys(keys.SCALING)
@@ -168,7 +174,7 @@ def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str,
         overrides[index] = Section.of(issues, value, loc, 'a mapping of scale keys')
         if overrides[index] is not None:
             overrides[index].check_keys(keys.LINEAR_SCALING)  # type: ignore[union-attr]
-    modes = _modes(node)
+    modes = _modes(node, family)
     drafts = []
     for index in range(total):
         joint_loc, joint = (names[index] if names and index < len(names)

@@ -39,6 +39,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia402.modes import Mode
 from drive_bridge.config.model import AxisConfig, PdoConfig, PdoEntry
 from drive_bridge.families.base import DATA_DIR, DriveFamily, predefined_cob_id, register_family
 
@@ -242,6 +243,10 @@ class Akd(DriveFamily):
     pvt_submode = PVT_SUBMODE
     default_interpolation = 'pvt'
     interpolation_fault_codes = frozenset({EMCY_PVT_OVERFLOW, EMCY_PVT_UNDERFLOW})
+    # 0x6502 = 0x65 (pp, pv, hm, ip) but 0x6060 accepts 4 and 8 too (akd.md §10.9); no csv/cst
+    default_modes = {'mode': 'ip', 'position_mode': 'ip', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
+    accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
+                                Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION})
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:

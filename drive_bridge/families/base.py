@@ -34,6 +34,11 @@ class DriveFamily:
     pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of cubic PVT interpolation, if any
     default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
     interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
+    # modes the drive accepts, when its 0x6502 says otherwise (None: trust 0x6502)
+    accepted_modes: ClassVar[frozenset[int] | None] = None
+    # default of the axis keys mode / position_mode / velocity_mode / effort_mode, where they
+    # differ from csp / csp / csv / cst
+    default_modes: ClassVar[Mapping[str, str]] = {}
 
     def eds_for(self, axis_count: int) -> Path | None:
         """The shipped EDS for a node with ``axis_count`` axes (None: the config must name one)."""

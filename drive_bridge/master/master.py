@@ -126,7 +126,8 @@ class Master:
             self._by_id[node.node_id] = node
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
-                self.axes[axis_cfg.joint] = Axis(node, axis_cfg, node_cfg.timeouts, period)
+                self.axes[axis_cfg.joint] = Axis(node, axis_cfg, node_cfg.timeouts, period,
+                                                 node.family.accepted_modes)
         self._start_cycle()
         if cfg.master.heartbeat_producer_ms:
             self._heartbeat_task = self.network.send_periodic(
