@@ -292,3 +292,19 @@ def test_malformed_trajectories_are_refused_whole(ros: RosHarness, bridge: BusNo
     after = latest_positions(states)
     assert all(after[j] == pytest.approx(before[j], abs=1e-4) for j in JOINTS)
     assert not bridge.trajectories.active()
+
+
+def test_bus_events_reach_the_log_at_their_severity(ros: RosHarness, bridge: BusNode) -> None:
+    from rcl_interfaces.msg import Log
+    logs: list[Log] = []
+    ros.node('log_watch').create_subscription(Log, '/rosout', logs.append, 100)
+    time.sleep(0.3)
+    bridge.simulation.drive(4).stop_heartbeat()
+    lost = wait_for(lambda: next((m for m in logs if 'heartbeat lost' in m.msg), None), 3, 'heartbeat lost log')
+    assert lost.level == Log.ERROR and lost.name == 'drive_bridge'
+    bridge.simulation.drive(4).start_heartbeat()
+    back = wait_for(lambda: next((m for m in logs if 'heartbeat back' in m.msg), None), 3, 'heartbeat back log')
+    assert back.level == Log.WARN
+    bridge.simulation.drive(2).inject_fault(0x2310)
+    fault = wait_for(lambda: next((m for m in logs if '0x2310' in m.msg), None), 3, 'EMCY log')
+    assert fault.level == Log.ERROR and 'continuous over-current' in fault.msg

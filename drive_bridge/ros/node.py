@@ -111,8 +111,14 @@ class Bridge:
                 self._held.add(joint)
 
     def _log_event(self, event: BusEvent) -> None:
+        # one call site per severity: rclpy refuses a call site that changes severity
         logger = self.node.get_logger()
-        {Level.INFO: logger.info, Level.WARN: logger.warning, Level.ERROR: logger.error}[event.level](event.message)
+        if event.level is Level.ERROR:
+            logger.error(event.message)
+        elif event.level is Level.WARN:
+            logger.warning(event.message)
+        else:
+            logger.info(event.message)
 
     def _auto_enable(self) -> None:
         try:

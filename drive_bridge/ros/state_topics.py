@@ -124,8 +124,10 @@ class StateTopics:
         joint = joints[event.slot] if event.slot is not None and event.slot < len(joints) else \
             (joints[0] if len(joints) == 1 else '')
         self.emcy.publish(emcy_msg(event, joint))
-        level = self.node.get_logger().info if event.is_reset else self.node.get_logger().error
-        level(str(event))
+        if event.is_reset:  # one call site per severity (rclpy)
+            self.node.get_logger().info(str(event))
+        else:
+            self.node.get_logger().error(str(event))
 
     def _count_frame_subscribers(self) -> None:
         self._frame_subscribers = self.frames.get_subscription_count()

@@ -109,7 +109,7 @@ class TrajectoryAction:
             if handle.state in ('aborted', 'cancelled'):
                 goal.abort()
                 return self._result(Result.PATH_TOLERANCE_VIOLATED, f'aborted: {handle.reason}')
-            now = time.time()
+            now = self.executor.now()  # the stream clock (behind wall time after stalled cycles)
             feedback, errors = self._feedback(joints, now)
             goal.publish_feedback(feedback)
             if now < handle.end:
@@ -150,7 +150,7 @@ class TrajectoryAction:
             error.velocities.append(d_vel - snapshot.velocity)
             errors[joint] = (d_pos - snapshot.position, d_vel - snapshot.velocity)
         feedback = FollowJointTrajectory.Feedback(joint_names=joints, desired=desired, actual=actual, error=error)
-        feedback.header.stamp = stamp_from_seconds(now)
+        feedback.header.stamp = stamp_from_seconds(time.time())
         for point in (desired, actual, error):
             point.time_from_start = Duration()
         return feedback, errors

@@ -63,6 +63,9 @@ class TrajectoryExecutor:
         self.pvt_segment = pvt_segment
         self.pvt_lookahead = pvt_lookahead
         self._feeders: dict[str, PvtFeeder] = {}
+        self.lag = 0.0  # s the stream clock is behind the wall clock (stalled cycles)
+        self.stalls = 0
+        self._last_tick = 0.0
         self._lock = threading.Lock()
         self._splines: dict[str, list[JointSpline]] = {j: [] for j in self.axes}
         self._owner: dict[str, TrajectoryHandle | None] = {j: None for j in self.axes}
@@ -103,12 +106,12 @@ class TrajectoryExecutor:
     def submit(self, trajectory: Trajectory, source: str = 'trajectory') -> TrajectoryHandle | None:
         """Validate and schedule a trajectory; an empty one stops its joints (all if none
         are named) and returns None. TrajectoryError says why a trajectory was refused."""
-        now = self.clock()
+        now = self.now()
         if not trajectory.points:
             self.stop(trajectory.joints or tuple(self.axes), 'stopped by an empty trajectory', smooth=True)
             return None
         validate(trajectory, {j: a.config.limits for j, a in self.axes.items()}, source)
-        start = trajectory.start if trajectory.start else now
+        start = trajectory.start - self.lag if trajectory.start else now
         end = start + trajectory.points[-1].time
         if end < now:
             raise TrajectoryError(f'{source}: ends {now - end:.3f} s in the past (header.stamp too old)')
@@ -161,6 +164,24 @@ class TrajectoryExecutor:
         splines = self._splines[joint]
         return splines[-1].end_time if splines else None
 
+    def now(self) -> float:
+        """The stream clock: wall time minus the delay accumulated by stalled cycles."""
+        return self.clock() - self.lag
+
+    def _tick(self, t: float) -> float:
+        """Stream time of the cycle scheduled at t. A cycle that comes late (the SYNC thread
+        stalled) delays the trajectories by the stall, so the next set-point continues from
+        the last one instead of jumping (a jump the drive would turn into a following error
+        fault). Not while a PVT motion runs: its drive consumes points in real time."""
+        if t != self._last_tick:
+            late = t - self._last_tick - self.cycle_period
+            if self._last_tick and late > 0.5 * self.cycle_period and not any(
+                    not f.ended for f in self._feeders.values()):
+                self.lag += late
+                self.stalls += 1
+            self._last_tick = t
+        return t - self.lag
+
     def _source(self, joint: str) -> Callable[[float], Setpoint | None]:
         """Set-points sampled one cycle ahead: a drive latches a set-point at SYNC and reaches
         it one period later (CSP, linear IP); CSV gets the mean velocity of that period."""
@@ -168,6 +189,7 @@ class TrajectoryExecutor:
         period = self.cycle_period
 
         def sample(t: float) -> Setpoint | None:
+            t = self._tick(t)
             if axis.mode == Mode.CYCLIC_SYNC_VELOCITY:
                 desired = self.desired(joint, t + period / 2)
                 return None if desired is None else Setpoint(velocity=desired.velocity)
@@ -198,7 +220,7 @@ class TrajectoryExecutor:
     def stop(self, joints: Iterable[str], reason: str, state: str = 'cancelled', smooth: bool = False) -> None:
         """End the joints' trajectories (with ``state``) and hold them: at once, or (smooth)
         after decelerating from their desired velocity at the axis' stop deceleration."""
-        now = self.clock()
+        now = self.now()
         with self._lock:
             for joint in joints:
                 if joint not in self.axes:
@@ -225,7 +247,10 @@ class TrajectoryExecutor:
 
     def check(self, _cycle: int = 0) -> None:
         """Cycle hook: finish trajectories whose time is over, abort those whose axes dropped out."""
-        now = self.clock()
+        now = self.now()
+        if self.lag and not self._handles and all(
+                (end := self._end_of(j)) is None or end < now for j in self.axes):
+            self.lag = 0.0  # idle again: the next trajectory runs on wall time
         for handle in [h for h in self._handles if not h.finished]:
             if handle.state == 'pending' and now >= handle.start:
                 handle.state = 'active'
