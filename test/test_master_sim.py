@@ -147,7 +147,7 @@ def test_a_stopped_heartbeat_is_reported_within_its_time_and_axes_become_unavail
         stopped = time.monotonic()
         lost = eventually(lambda: next((e for e in events if e.kind is EventKind.HEARTBEAT_LOST), None),
                           3.0, 'heartbeat lost event')
-        assert time.monotonic() - stopped < limit + 0.25
+        assert time.monotonic() - stopped < limit + 0.6  # last heartbeat + limit + supervision, generous
         assert 'node 4 (lift_drive): heartbeat lost' in lost.message
         assert not master.axes['lift_joint'].snapshot().available
         assert master.axes['base_joint'].snapshot().available

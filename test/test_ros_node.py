@@ -116,12 +116,14 @@ def test_a_joint_trajectory_moves_the_axes_along_its_path(ros: RosHarness, bridg
         start, {j: JointSample(start_positions[j], 0.0, 0.0) for j in goal})
     worst = {j: 0.0 for j in goal}
     checked = 0
+    lag = bridge.trajectories.lag  # a stalled cycle delays the stream (and never jumps it)
     for m in states.messages:
         t = m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
         if start <= t <= start + 1.4:
             for joint, position in zip(m.name, m.position):
                 if joint in goal:
-                    worst[joint] = max(worst[joint], abs(position - ideal[joint].sample(t).position))
+                    error = min(abs(position - ideal[joint].sample(t - shift).position) for shift in (0.0, lag))
+                    worst[joint] = max(worst[joint], error)
             checked += 1
     assert checked > 100
     assert worst['base_joint'] < 0.02, worst  # rad: drive lag and one SYNC of set-point latency
