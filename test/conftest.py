@@ -17,3 +17,14 @@ def ros() -> RosHarness:
     """A private rclpy context with a spinning executor, shut down after the test."""
     with ros_harness() as harness:
         yield harness
+
+
+@pytest.fixture(autouse=True)
+def _settled_garbage_collector():
+    """Start every test with the earlier tests' objects frozen out of the collector, so a
+    full collection does not stall the bridge's cycle thread for a long pytest session's
+    worth of objects (the bridge's own process does the same after start-up)."""
+    import gc
+    gc.collect()
+    gc.freeze()
+    yield

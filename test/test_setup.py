@@ -66,9 +66,10 @@ def test_readme_trajectory_example_moves_the_demo(ros: RosHarness) -> None:
         example = subprocess.run([sys.executable, '-c', readme_python_example()], env=dict(os.environ),
                                  capture_output=True, text=True, timeout=60)
         assert example.returncode == 0, example.stderr
-        time.sleep(2.0)
-        final = dict(zip(states[-1].name, states[-1].position))
-        assert abs(final['base_joint'] - 1.0) < 0.01 and abs(final['shoulder_joint'] - 0.5) < 0.01, final
+        def arrived() -> bool:
+            final = dict(zip(states[-1].name, states[-1].position))
+            return abs(final['base_joint'] - 1.0) < 0.01 and abs(final['shoulder_joint'] - 0.5) < 0.01
+        wait_for(arrived, 10, 'the example trajectory to reach base_joint 1.0, shoulder_joint 0.5')
     finally:
         os.killpg(proc.pid, signal.SIGINT)
         try:

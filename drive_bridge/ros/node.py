@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import gc
 import threading
 from pathlib import Path
 
@@ -212,6 +213,10 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
         rclpy.logging.get_logger('drive_bridge').fatal(str(exc))
         rclpy.try_shutdown()
         return 2
+    # Start-up objects never become garbage: keep full collections from walking them, which
+    # would stall the SYNC cycle thread (the GIL is held while the collector runs).
+    gc.collect()
+    gc.freeze()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:

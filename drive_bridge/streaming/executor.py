@@ -24,7 +24,7 @@ from drive_bridge.streaming.trajectory import (JointSample, JointSpline, Traject
 
 STREAMABLE_MODES = {Mode.CYCLIC_SYNC_POSITION: 'cyclic position', Mode.CYCLIC_SYNC_VELOCITY: 'cyclic velocity',
                     Mode.INTERPOLATED_POSITION: 'interpolated position'}
-KEEP_OLD_SPLINES = 2.0  # s a replaced spline is kept after its successor starts (for desired())
+STALL_PERIODS = 2  # a cycle later than this many periods delays the stream (see _tick)
 
 
 @dataclass
@@ -175,7 +175,9 @@ class TrajectoryExecutor:
         fault). Not while a PVT motion runs: its drive consumes points in real time."""
         if t != self._last_tick:
             late = t - self._last_tick - self.cycle_period
-            if self._last_tick and late > 0.5 * self.cycle_period and not any(
+            # one or two lost periods only speed the drive's interpolation up briefly; a
+            # longer stall would be a jump
+            if self._last_tick and late > STALL_PERIODS * self.cycle_period and not any(
                     not f.ended for f in self._feeders.values()):
                 self.lag += late
                 self.stalls += 1
