@@ -4,7 +4,10 @@ bridge, per streaming strategy and SYNC period.
 For each strategy (cyclic synchronous position, linear interpolated position, PVT) and SYNC
 period, 4 axes run two smooth trajectories (a quintic point-to-point move and a sum of
 sines). The drive's interpolated position (demand, 0x6062) is recorded inside each
-simulated drive at every SYNC and compared with the ideal trajectory at the SYNC's time.
+simulated drive at every SYNC and compared with the ideal trajectory at the SYNC's time on
+the bridge's stream clock; "stream delay" is how far that clock fell behind wall time
+because the cycle thread stalled for more than two periods (it then delays the motion
+rather than jumping the set-point).
 
     .venv/bin/python -m bench tracking [--periods 1 2 4 10] [--strategies csp ip pvt]
 """
@@ -98,11 +101,13 @@ class Row:
     overflows: int
     frames_per_s: float
     skipped: int
+    delay_ms: float
 
 
-def record_demand(sim: SimulatedBus) -> dict[int, list[tuple[float, int]]]:
-    """(SYNC timestamp, demand position) of each simulated drive's axis 0 after every SYNC step."""
-    records: dict[int, list[tuple[float, int]]] = {}
+def record_demand(sim: SimulatedBus, executor: TrajectoryExecutor) -> dict[int, list[tuple[float, int, float]]]:
+    """(SYNC timestamp, demand position, stream delay) of each simulated drive's axis 0
+    after every SYNC step."""
+    records: dict[int, list[tuple[float, int, float]]] = {}
     for node_id, drive in sim.drives.items():
         log: list[tuple[float, int]] = []
         records[node_id] = log
@@ -111,7 +116,7 @@ def record_demand(sim: SimulatedBus) -> dict[int, list[tuple[float, int]]]:
         def step(dt: float, sync: bool, drive=drive, log=log, original=original) -> None:
             original(dt, sync)
             if sync:
-                log.append((drive._prev_sync_stamp, drive.axes[0].demand_position))
+                log.append((drive._prev_sync_stamp, drive.axes[0].demand_position, executor.lag))
         drive._model_step = step
     return records
 
@@ -133,7 +138,7 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
                                       pvt_segment=max(0.01, round(2 * period, 3)),
                                       pvt_lookahead=max(0.05, 6 * period))
         master.add_cycle_listener(executor.check)
-        records = record_demand(sim)
+        records = record_demand(sim, executor)
         traffic_before, since = master.traffic.traffic(), time.monotonic()
         skipped_before = master.sync.skipped if master.sync else 0
         start = time.time() + START_DELAY
@@ -146,11 +151,13 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
         skipped = (master.sync.skipped - skipped_before) if master.sync else 0
         errors = []
         ideals = TRAJECTORIES[name][1]
+        delay = 0.0
         for node_id, log in records.items():
             factor = master.axes[f'j{node_id}'].config.scaling.position_factor
-            for stamp, demand in log:
-                if start <= stamp <= start + duration:
-                    errors.append(demand * factor - ideals[node_id - 1](stamp - start)[0])
+            for stamp, demand, lag in log:  # against the ideal on the stream clock (see delay)
+                if start <= stamp - lag <= start + duration:
+                    errors.append(demand * factor - ideals[node_id - 1](stamp - lag - start)[0])
+                    delay = max(delay, lag)
         underflows = emcy_codes.count(0x8585)
         overflows = emcy_codes.count(0x8584) + sum(getattr(d.axes[0], 'ip').overflows for d in sim.drives.values())
         if handle is not None and handle.state == 'aborted':
@@ -161,19 +168,27 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
                    (stats.lead_median if stats else 0) * 1e6, (stats.lead_max if stats else 0) * 1e6,
                    underflows, overflows,
                    (traffic.rx_frames + traffic.tx_frames - traffic_before.rx_frames - traffic_before.tx_frames) / elapsed,
-                   skipped)
+                   skipped, delay * 1000)
     finally:
         master.stop()
         sim.stop()
 
 
+def median_row(runs: list[Row]) -> Row:
+    """Each numeric figure's median over repeated runs of one case."""
+    first = runs[0]
+    figures = {f: statistics.median(getattr(r, f) for r in runs) for f in Row.__dataclass_fields__
+               if f not in ('strategy', 'period_ms', 'trajectory')}
+    return Row(first.strategy, first.period_ms, first.trajectory, **figures)
+
+
 def table(rows: list[Row]) -> str:
     head = ('| strategy | SYNC | trajectory | max error (rad) | RMS error (rad) | lead median / worst (µs) '
-            '| underflows | overflows | CAN frames/s | skipped SYNCs |\n'
-            '|---|---|---|---|---|---|---|---|---|---|')
+            '| underflows | overflows | CAN frames/s | skipped SYNCs | stream delay (ms) |\n'
+            '|---|---|---|---|---|---|---|---|---|---|---|')
     lines = [f'| {r.strategy} | {r.period_ms:g} ms | {r.trajectory} | {r.max_error:.2e} | {r.rms_error:.2e} | '
              f'{r.lead_median_us:.0f} / {r.lead_max_us:.0f} | {r.underflows} | {r.overflows} | '
-             f'{r.frames_per_s:.0f} | {r.skipped} |' for r in rows]
+             f'{r.frames_per_s:.0f} | {r.skipped} | {r.delay_ms:.0f} |' for r in rows]
     return '\n'.join([head, *lines])
 
 
@@ -182,6 +197,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument('--periods', nargs='+', type=float, default=[1, 2, 4, 10], help='SYNC periods in ms')
     parser.add_argument('--strategies', nargs='+', default=list(STRATEGIES), choices=list(STRATEGIES))
     parser.add_argument('--trajectories', nargs='+', default=list(TRAJECTORIES), choices=list(TRAJECTORIES))
+    parser.add_argument('--repeat', type=int, default=1,
+                        help='runs per case; the table gives the median of each figure (the VM is noisy)')
     options = parser.parse_args(argv)
     rows = []
     for strategy in options.strategies:
@@ -190,8 +207,9 @@ def main(argv: list[str] | None = None) -> None:
             continue
         for period in options.periods:
             for name in options.trajectories:
-                channel = f'bench-{strategy}-{period}-{name}-{time.monotonic_ns()}'
-                rows.append(run_case(strategy, period, name, channel))
+                runs = [run_case(strategy, period, name, f'bench-{strategy}-{period}-{name}-{time.monotonic_ns()}')
+                        for _ in range(max(1, options.repeat))]
+                rows.append(median_row(runs))
                 print(table(rows[-1:]).splitlines()[-1], flush=True)
     print()
     print(table(rows))

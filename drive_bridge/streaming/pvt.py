@@ -75,7 +75,7 @@ class PvtFeeder:
         if self.ended:
             return
         if self.offset_ms == 0:
-            if now + self.lead < self.motion_start:
+            if now + self.lead / 2 < self.motion_start:
                 return  # the drive runs a segment as soon as it has it: not before the start
         elif self.last_time > now + self.lookahead:
             return  # enough queued
@@ -100,7 +100,10 @@ class PvtFeeder:
         position, velocity = self._point(axis, t)
         if t < now:
             self.stats.late_points += 1
-        axis.push_interpolation_point(position=position, time_ms=offset - self.offset_ms, velocity=velocity)
+        duration = offset - self.offset_ms
+        if self.offset_ms == 0:  # the drive starts the first segment at this cycle's SYNC (now)
+            duration = max(1, round((t - now) * 1000))
+        axis.push_interpolation_point(position=position, time_ms=duration, velocity=velocity)
         self.stats.points += 1
         self.offset_ms = offset
 
