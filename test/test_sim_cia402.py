@@ -127,7 +127,6 @@ def test_profile_position_with_set_point_handshake(bench: SimBench) -> None:
     operational(bench, sim)
     sync = SyncLoop(bench.master, PERIOD)
     cw = {'value': 0x1F}
-    acked: list[bool] = []
 
     def before(i: int) -> None:
         bench.send(RPDO2, rpdo2(20000))

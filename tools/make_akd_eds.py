@@ -62,11 +62,14 @@ Other choices where the manual is silent or self-contradictory:
 """
 from __future__ import annotations
 
-import io
+import sys
 from pathlib import Path
 
 import canopen
-from canopen.objectdictionary import ODArray, ODRecord, ODVariable, datatypes as dt
+from canopen.objectdictionary import ODRecord, datatypes as dt
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from edswriter import container, var, write_eds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'akd.eds'
 
@@ -86,31 +89,6 @@ FACTORY_RPDOS = {1: [0x60400010], 2: [0x60400010, 0x60600008], 3: [0x60400010, 0
                  4: [0x60400010, 0x60FF0020]}
 FACTORY_TPDOS = {1: [0x60410010], 2: [0x60410010, 0x60610008], 3: [0x60410010, 0x60640020],
                  4: [0x60410010, 0x606C0020]}
-
-
-def var(name: str, index: int, sub: int, data_type: int, access: str = 'rw', default=0,
-        mappable: bool = False, relative: bool = False, low: int | None = None,
-        high: int | None = None) -> ODVariable:
-    v = ODVariable(name, index, sub)
-    v.data_type, v.access_type, v.default, v.pdo_mappable, v.relative = data_type, access, default, mappable, relative
-    if relative:  # the exporter writes default_raw verbatim: keep $NODEID in the file
-        v.default_raw = f'$NODEID+0x{default:X}'
-    elif isinstance(default, int) and default < 0:  # canopen 2.4.1 exports negatives as '0x-3'
-        v.default_raw = str(default)
-    if data_type == VS:
-        v.default = default or ''
-    v.min, v.max = low, high
-    return v
-
-
-def container(name: str, index: int, members: list[ODVariable], array: bool = False,
-              count_access: str = 'ro', count: int | None = None) -> ODRecord | ODArray:
-    box = ODArray(name, index) if array else ODRecord(name, index)
-    box.add_member(var('Highest sub-index supported', index, 0, U8, count_access,
-                       len(members) if count is None else count))
-    for member in members:
-        box.add_member(member)
-    return box
 
 
 def communication(od: canopen.ObjectDictionary) -> None:
@@ -292,13 +270,7 @@ def build() -> canopen.ObjectDictionary:
 
 
 def main() -> None:
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    text = io.StringIO()
-    canopen.export_od(build(), text, doc_type='eds')
-    lines = [line for line in text.getvalue().splitlines()
-             if not line.startswith(('CreationDate', 'CreationTime', 'ModificationDate', 'ModificationTime'))]
-    OUT.write_text('\n'.join(lines) + '\n')
-    reread = canopen.import_od(str(OUT), node_id=5)
+    reread = write_eds(build(), OUT)
     assert reread[0x1014].default == 0x85, 'COB-ID EMCY must be relative to the node id'
     assert reread[0x1401][1].default == 0x305, 'RPDO COB-IDs must be relative to the node id'
     assert reread[0x60C2][2].default == -3 and reread[0x60C0].min == -2

@@ -7,16 +7,19 @@ so users can read and copy them. Run it again after changing the object list:
 """
 from __future__ import annotations
 
-import io
+import sys
 from pathlib import Path
 
 import canopen
-from canopen.objectdictionary import ODArray, ODRecord, ODVariable, datatypes as dt
+from canopen.objectdictionary import datatypes as dt
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
 from drive_bridge.config.model import AxisConfig
 from drive_bridge.families import get_family
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from edswriter import container, var, write_eds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data'
 
@@ -28,34 +31,12 @@ SUPPORTED_MODES = [Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TO
                    Mode.CYCLIC_SYNC_TORQUE]
 
 
-def var(name: str, index: int, sub: int, data_type: int, access: str = 'rw', default=0,
-        mappable: bool = False, relative: bool = False) -> ODVariable:
-    v = ODVariable(name, index, sub)
-    v.data_type, v.access_type, v.default, v.pdo_mappable, v.relative = data_type, access, default, mappable, relative
-    if relative:  # the exporter writes default_raw verbatim: keep $NODEID in the file
-        v.default_raw = f'$NODEID+0x{default:X}'
-    elif isinstance(default, int) and default < 0:  # canopen 2.4.1 exports negatives as '0x-3'
-        v.default_raw = str(default)
-    if data_type == dt.VISIBLE_STRING:
-        v.default = default or ''
-    return v
-
-
-def record(name: str, index: int, members: list[ODVariable], array: bool = False) -> ODRecord | ODArray:
-    container = ODArray(name, index) if array else ODRecord(name, index)
-    count = var('Highest sub-index supported', index, 0, dt.UNSIGNED8, 'ro', len(members))
-    container.add_member(count)
-    for member in members:
-        container.add_member(member)
-    return container
-
-
 def communication_objects(od: canopen.ObjectDictionary, axes: int) -> None:
     u8, u16, u32 = dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
     od.add_object(var('Device type', 0x1000, 0, u32, 'ro', 0x00020192))
     od.add_object(var('Error register', 0x1001, 0, u8, 'ro', 0, mappable=True))
     errors = [var(f'Standard error field {i}', 0x1003, i, u32, 'ro', 0) for i in range(1, 9)]
-    field = record('Pre-defined error field', 0x1003, errors, array=True)
+    field = container('Pre-defined error field', 0x1003, errors, array=True)
     field[0].access_type, field[0].default = 'rw', 0
     od.add_object(field)
     od.add_object(var('COB-ID SYNC', 0x1005, 0, u32, 'rw', 0x80))
@@ -66,11 +47,11 @@ def communication_objects(od: canopen.ObjectDictionary, axes: int) -> None:
     od.add_object(var('Manufacturer software version', 0x100A, 0, dt.VISIBLE_STRING, 'const', '1.0'))
     od.add_object(var('COB-ID EMCY', 0x1014, 0, u32, 'rw', 0x80, relative=True))
     od.add_object(var('Inhibit time EMCY', 0x1015, 0, u16, 'rw', 0))
-    od.add_object(record('Consumer heartbeat time', 0x1016,
+    od.add_object(container('Consumer heartbeat time', 0x1016,
                          [var(f'Consumer heartbeat time {i}', 0x1016, i, u32, 'rw', 0) for i in range(1, 5)],
                          array=True))
     od.add_object(var('Producer heartbeat time', 0x1017, 0, u16, 'rw', 0))
-    od.add_object(record('Identity object', 0x1018, [
+    od.add_object(container('Identity object', 0x1018, [
         var('Vendor-ID', 0x1018, 1, u32, 'ro', VENDOR_ID),
         var('Product code', 0x1018, 2, u32, 'ro', PRODUCT_CODE),
         var('Revision number', 0x1018, 3, u32, 'ro', REVISION),
@@ -98,11 +79,11 @@ def pdo_objects(od: canopen.ObjectDictionary, axes: int) -> None:
                             var('Compatibility entry', comm, 4, u8, 'rw', 0),
                             var('Event timer', comm, 5, u16, 'rw', 0),
                             var('SYNC start value', comm, 6, u8, 'rw', 0)]
-            od.add_object(record(f'{kind}{n} communication parameter', comm, members))
+            od.add_object(container(f'{kind}{n} communication parameter', comm, members))
             entries = [e.index << 16 | e.subindex << 8 | e.bits for e in (pdo.mapping if pdo else ())]
             mapped = [var(f'{kind}{n} mapping entry {i}', mapping, i, u32, 'rw',
                           entries[i - 1] if i <= len(entries) else 0) for i in range(1, 9)]
-            mapping_record = record(f'{kind}{n} mapping parameter', mapping, mapped)
+            mapping_record = container(f'{kind}{n} mapping parameter', mapping, mapped)
             mapping_record[0].access_type, mapping_record[0].default = 'rw', len(entries)
             od.add_object(mapping_record)
 
@@ -162,19 +143,19 @@ def axis_objects(od: canopen.ObjectDictionary, slot: int) -> None:
     ]
     for index, name, data_type, access, default, mappable in simple:
         od.add_object(var(prefix + name, a(index), 0, data_type, access, default, mappable))
-    od.add_object(record(prefix + 'Software position limit', a(obj.SOFTWARE_POSITION_LIMIT), [
+    od.add_object(container(prefix + 'Software position limit', a(obj.SOFTWARE_POSITION_LIMIT), [
         var('Min position limit', a(obj.SOFTWARE_POSITION_LIMIT), 1, i32, 'rw', -(2 ** 31)),
         var('Max position limit', a(obj.SOFTWARE_POSITION_LIMIT), 2, i32, 'rw', 2 ** 31 - 1)], array=True))
-    od.add_object(record(prefix + 'Homing speeds', a(obj.HOMING_SPEEDS), [
+    od.add_object(container(prefix + 'Homing speeds', a(obj.HOMING_SPEEDS), [
         var('Speed during search for switch', a(obj.HOMING_SPEEDS), 1, u32, 'rw', 20000, True),
         var('Speed during search for zero', a(obj.HOMING_SPEEDS), 2, u32, 'rw', 5000, True)], array=True))
-    od.add_object(record(prefix + 'Interpolation data record', a(obj.INTERPOLATION_DATA_RECORD), [
+    od.add_object(container(prefix + 'Interpolation data record', a(obj.INTERPOLATION_DATA_RECORD), [
         var('Interpolation data record 1', a(obj.INTERPOLATION_DATA_RECORD), 1, i32, 'rw', 0, True)],
         array=True))
-    od.add_object(record(prefix + 'Interpolation time period', a(obj.INTERPOLATION_TIME_PERIOD), [
+    od.add_object(container(prefix + 'Interpolation time period', a(obj.INTERPOLATION_TIME_PERIOD), [
         var('Interpolation time period value', a(obj.INTERPOLATION_TIME_PERIOD), 1, u8, 'rw', 4),
         var('Interpolation time index', a(obj.INTERPOLATION_TIME_PERIOD), 2, i8, 'rw', -3)]))
-    od.add_object(record(prefix + 'Interpolation data configuration', a(obj.INTERPOLATION_DATA_CONFIGURATION), [
+    od.add_object(container(prefix + 'Interpolation data configuration', a(obj.INTERPOLATION_DATA_CONFIGURATION), [
         var('Maximum buffer size', a(obj.INTERPOLATION_DATA_CONFIGURATION), 1, u32, 'ro', 16),
         var('Actual buffer size', a(obj.INTERPOLATION_DATA_CONFIGURATION), 2, u32, 'ro', 16, True),
         var('Buffer organization', a(obj.INTERPOLATION_DATA_CONFIGURATION), 3, u8, 'rw', 0),
@@ -204,16 +185,10 @@ def build(axes: int) -> canopen.ObjectDictionary:
 
 
 def main() -> None:
-    OUT.mkdir(parents=True, exist_ok=True)
     for axes, name in ((1, 'generic402.eds'), (2, 'generic402_2axis.eds')):
-        text = io.StringIO()
-        canopen.export_od(build(axes), text, doc_type='eds')
-        lines = [line for line in text.getvalue().splitlines() if not line.startswith(('CreationDate', 'CreationTime', 'ModificationDate', 'ModificationTime'))]
-        path = OUT / name
-        path.write_text('\n'.join(lines) + '\n')
-        reread = canopen.import_od(str(path), node_id=5)
+        reread = write_eds(build(axes), OUT / name)
         assert reread[0x1014].default == 0x85, 'COB-ID EMCY must be relative to the node id'
-        print(f'wrote {path} ({len(reread)} objects)')
+        print(f'wrote {OUT / name} ({len(reread)} objects)')
 
 
 if __name__ == '__main__':
