@@ -216,3 +216,27 @@ def test_a_node_that_reboots_is_configured_again() -> None:
         master.wait_until_operational(5.0)
         master.axes['elbow_joint'].enable(timeout=2.0)
         assert math.isfinite(master.axes['elbow_joint'].snapshot().position)
+
+
+def test_an_external_sync_producer_drives_the_cycle() -> None:
+    import canopen
+    data = demo_data()
+    data['master']['sync_producer'] = 'external'
+    config = config_from(data)
+    producer = canopen.Network()
+    producer.connect(interface='virtual', channel=config.bus.channel)
+    try:
+        producer.sync.start(0.004)  # e.g. a drive or an adapter produces SYNC
+        with running(config) as (master, sim):
+            assert master.sync is None  # the bridge sends no SYNC of its own
+            axis = master.axes['base_joint']
+            axis.enable(timeout=2.0)  # the controlword RPDOs follow the external SYNC
+            p0 = axis.commanded_position()
+            t0 = time.time()
+            axis.set_setpoint_source(lambda t: Setpoint(position=p0 + 0.2 * min(time.time() - t0, 0.5)))
+            time.sleep(0.8)
+            assert axis.snapshot().position == pytest.approx(p0 + 0.1, abs=2e-3)
+            assert sim.drive(2).received_sync_count > 100
+    finally:
+        producer.sync.stop()
+        producer.disconnect()
