@@ -100,6 +100,15 @@ class SyncLoop:
     def sync(self) -> None:
         self.network.send_message(SYNC_COB_ID, b'')
 
+    def _pace(self, deadline: float) -> float:
+        """Sleep to the next absolute deadline; a late cycle restarts the grid (no burst)."""
+        deadline += self.period
+        delay = deadline - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+            return deadline
+        return time.monotonic()
+
     def run(self, cycles: int, before: Callable[[int], None] | None = None,
             after: Callable[[int], None] | None = None) -> None:
         deadline = time.monotonic()
@@ -109,12 +118,7 @@ class SyncLoop:
             self.sync()
             if after is not None:
                 after(i)
-            deadline += self.period
-            delay = deadline - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            else:
-                deadline = time.monotonic()
+            deadline = self._pace(deadline)
 
     def run_until(self, predicate: Callable[[], bool], timeout: float,
                   before: Callable[[int], None] | None = None, what: str = 'condition') -> int:
@@ -129,12 +133,7 @@ class SyncLoop:
                 before(i)
             self.sync()
             i += 1
-            deadline += self.period
-            delay = deadline - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            else:
-                deadline = time.monotonic()
+            deadline = self._pace(deadline)
         return i
 
 
