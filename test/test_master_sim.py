@@ -240,3 +240,36 @@ def test_an_external_sync_producer_drives_the_cycle() -> None:
     finally:
         producer.sync.stop()
         producer.disconnect()
+
+
+def test_malformed_frames_are_counted_or_decoded_and_the_master_keeps_running() -> None:
+    import can
+    with running(config_from(demo_data())) as (master, sim):
+        emcys = []
+        master.add_emcy_listener(emcys.append)
+        axis = master.axes['base_joint']
+        axis.enable(timeout=2.0)
+        rogue = can.Bus(interface='virtual', channel=master.config.bus.channel)
+        try:
+            for frame in (
+                    can.Message(arbitration_id=0x182, data=b'\x37', is_extended_id=False),  # TPDO1 1 of 5 bytes
+                    can.Message(arbitration_id=0x702, data=b'', is_extended_id=False),  # heartbeat, no state
+                    can.Message(arbitration_id=0x082, data=b'\x10\x23\x03', is_extended_id=False),  # short EMCY
+                    can.Message(arbitration_id=0x582, data=b'\xff' * 8, is_extended_id=False),  # unasked SDO
+                    can.Message(arbitration_id=0x182, is_remote_frame=True, is_extended_id=False),  # RTR
+                    can.Message(arbitration_id=0x1ABCDEF, data=b'\x00' * 8, is_extended_id=True),  # 29-bit
+                    can.Message(arbitration_id=0x7FF, data=b'\x01\x02', is_extended_id=False)):  # unknown id
+                rogue.send(frame)
+            snapshot = eventually(lambda: next((n for n in master.snapshot().nodes if n.pdo_errors), None), 2.0,
+                                  'the short TPDO counted')
+            assert snapshot.last_pdo_error == 'TPDO 0x182: 1 byte(s) received, mapping needs 5'
+            short = eventually(lambda: next((e for e in emcys if e.code == 0x2310), None), 2.0, 'short EMCY decoded')
+            assert short.register == 0x03 and short.manufacturer == b'\x00' * 5
+        finally:
+            rogue.shutdown()
+        # everything still works: SYNC runs, the axis follows commands, SDO answers
+        cycles = master.sync.cycles
+        time.sleep(0.2)
+        assert master.sync.cycles > cycles + 10
+        assert axis.snapshot().state is not State.UNKNOWN and master.nodes['base_drive'].available
+        assert master.sdo_read(2, 0x1018, 2)[1] == 0x402

@@ -315,3 +315,24 @@ def test_bus_events_reach_the_log_at_their_severity(ros: RosHarness, bridge: Bus
     bridge.simulation.drive(2).inject_fault(0x2310)
     fault = wait_for(lambda: next((m for m in logs if '0x2310' in m.msg), None), 3, 'EMCY log')
     assert fault.level == Log.ERROR and 'continuous over-current' in fault.msg
+
+
+@pytest.mark.parametrize('topic, msg, reason', [
+    ('commands', Float64MultiArray(data=[0.1, 0.2]), '2 value(s) for 4 joint(s)'),
+    ('commands', Float64MultiArray(data=[0.0, 0.0, math.nan, 0.0]), 'position nan is not a finite number'),
+    ('commands', Float64MultiArray(data=[0.0, 0.0, 0.0, 9.0]), 'position 9 is above the limit 0.5'),
+    ('joint_commands', JointState(name=['nope'], position=[0.1]), 'unknown joint(s) nope'),
+    ('joint_commands', JointState(name=['base_joint', 'lift_joint'], position=[0.1]),
+     '1 position value(s) for 2 name(s)'),
+])
+def test_bad_command_messages_are_refused_with_the_reason(ros: RosHarness, bridge: BusNode, topic, msg,
+                                                         reason: str) -> None:
+    errors = Recorder(ros, String, f'{NS}/command_errors')
+    publisher = ros.node(f'bad_{topic}').create_publisher(type(msg), f'{NS}/{topic}', 10)
+    wait_for(lambda: publisher.get_subscription_count(), 5, 'the bridge subscribed')
+    before = {j: a.snapshot().position for j, a in bridge.master.axes.items()}
+    publisher.publish(msg)
+    error = errors.wait(lambda m: True, 3, 'a refusal')
+    assert error.data.startswith(f'~/{topic}: refused: ') and reason in error.data, error.data
+    time.sleep(0.2)
+    assert all(abs(a.snapshot().position - before[j]) < 1e-4 for j, a in bridge.master.axes.items())
