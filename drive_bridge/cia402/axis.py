@@ -598,17 +598,13 @@ class Axis:
     def snapshot(self) -> AxisSnapshot:
         statusword = self._value('statusword')
         sw = int(statusword) if statusword is not None else 0
-        scaling = self.config.scaling
-        position, velocity, torque = (self._value(k) for k in ('position', 'velocity', 'torque'))
+        _available, position, velocity, effort, stamp = self.feedback()
         return AxisSnapshot(
             joint=self.joint, node_id=self.node.node_id, node_name=self.node.name, slot=self.config.slot,
             available=self.node.available and statusword is not None, nmt_state=self.node.nmt_state,
             state=self.state, statusword=sw, controlword=self._controlword,
             mode=int(self._value('mode_display') or 0), requested_mode=self._mode,
-            position=scaling.position_to_si(position) if position is not None else math.nan,
-            velocity=scaling.velocity_to_si(velocity) if velocity is not None else math.nan,
-            effort=scaling.effort_to_si(torque) if torque is not None else math.nan,
-            stamp=self.node.stamp(*self.key['position']),
+            position=position, velocity=velocity, effort=effort, stamp=stamp,
             fault=bool(sw & sm.SW_FAULT), warning=bool(sw & sm.SW_WARNING),
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
             following_error=bool(sw & sm.SW_OMS_13) and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION),

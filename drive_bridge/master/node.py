@@ -70,7 +70,8 @@ class NodeRuntime:
         self.process = ProcessImage(config.od, config.rpdo, config.tpdo)
         for cob_id in self.process.rx_layouts:
             network.subscribe(cob_id, self.process.on_tpdo)
-        self.worker = SdoWorker(self.sdo, self._on_polled, on_error=on_error)
+        self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
+                                on_error=on_error)
         self.heartbeat_timeout = (config.heartbeat_producer_ms * master.heartbeat_multiplier / 1000.0
                                   if config.heartbeat_producer_ms and master.heartbeat_consumer else 0.0)
         self.boot_state = BootState.WAITING
@@ -111,12 +112,6 @@ class NodeRuntime:
         self._emcy.append(event)
         self._on_emcy(event)
         self._notify()
-
-    def _on_polled(self, key: ObjectKey, value: int | float, timestamp: float) -> None:
-        self.process.inputs[key] = value
-        self.process.input_stamps[key] = timestamp
-        for listener in self.process._listeners:
-            listener(frozenset((key,)), timestamp)
 
     def add_state_listener(self, listener: Callable[[], None]) -> None:
         """Called on any heartbeat, EMCY or boot state change (from any thread)."""

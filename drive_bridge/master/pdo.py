@@ -136,12 +136,16 @@ class ProcessImage:
             self.last_rx_error = (f'TPDO 0x{cob_id:03X}: {len(data)} byte(s) received, '
                                   f'mapping needs {layout.length}')
             return
+        self.rx_counts[cob_id] += 1
+        self.store(layout.unpack(bytes(data)), timestamp)
+
+    def store(self, values: Iterable[tuple[ObjectKey, int | float]], timestamp: float) -> None:
+        """Record received input values (from a TPDO, or polled by SDO) and tell the listeners."""
         keys = []
-        for key, value in layout.unpack(bytes(data)):
+        for key, value in values:
             self.inputs[key] = value
             self.input_stamps[key] = timestamp
             keys.append(key)
-        self.rx_counts[cob_id] += 1
         updated = frozenset(keys)
         for listener in self._listeners:
             listener(updated, timestamp)
