@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from drive_bridge.config import ConfigError, load_bus_config
-from drive_bridge.config.model import BusConfig
+from drive_bridge.model import BusConfig
 
 CONFIGS = Path(__file__).resolve().parent / 'data' / 'configs'
 # CI clones the repository with the shared facts beside it (../shared).

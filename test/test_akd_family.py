@@ -18,10 +18,10 @@ from bustools import REPO, eventually, running, unique_channel
 from configtools import load_yaml
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import load_bus_config, parse_bus_config
-from drive_bridge.config.model import AxisConfig, PdoConfig
+from drive_bridge.model import AxisConfig, PdoConfig
 from drive_bridge.families import get_family
 from drive_bridge.families.base import DATA_DIR, predefined_cob_id
-from drive_bridge.master.emcy import decode_emcy, describe_code
+from drive_bridge.cia301.emcy import decode_emcy, describe_code
 
 AKD_EDS = DATA_DIR / 'akd.eds'
 EXAMPLE = REPO / 'config' / 'akd_pvt_example.yaml'

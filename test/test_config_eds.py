@@ -8,7 +8,7 @@ import pytest
 
 from configtools import CONFIGS, REAL_EDS
 from drive_bridge.config import ConfigError, load_object_dictionary, parse_bus_config
-from drive_bridge.config.model import PdoEntry
+from drive_bridge.model import PdoEntry
 
 # objects parsed per file, from realdata/SOURCES.md (canopen 2.4.1): every file there loads,
 # two of them only through the encoding fallbacks

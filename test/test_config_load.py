@@ -9,7 +9,7 @@ import pytest
 
 from configtools import CONFIGS, load_yaml
 from drive_bridge.config import load_bus_config, load_bus_config_text, parse_bus_config
-from drive_bridge.config.model import BusConfig, PdoEntry
+from drive_bridge.model import BusConfig, PdoEntry
 
 COMPLETE = CONFIGS / 'complete.yaml'
 

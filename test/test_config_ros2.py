@@ -7,7 +7,7 @@ import pytest
 
 from configtools import CONFIGS, REAL_EDS, load_yaml, problems
 from drive_bridge.config import load_bus_config
-from drive_bridge.config.model import BusConfig, PdoEntry
+from drive_bridge.model import BusConfig, PdoEntry
 
 BUS_YML = CONFIGS / 'ros2_canopen_bus.yml'
 

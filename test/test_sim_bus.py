@@ -10,7 +10,7 @@ import canopen
 import pytest
 
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.config.model import BusConfig, BusInterface, SimulationConfig
+from drive_bridge.model import BusConfig, BusInterface, SimulationConfig
 from drive_bridge.sim import SimDrive402, SimulatedBus, SimulatedSlave, simulated_families, simulator_for
 from drive_bridge.sim.bench import measure
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, describe

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from drive_bridge.config.model import AxisLimits
+from drive_bridge.model import AxisLimits
 from drive_bridge.streaming.trajectory import (JointSample, Trajectory, TrajectoryError, TrajectoryPoint,
                                                joint_splines, validate)
 

@@ -15,7 +15,7 @@ from canopen.objectdictionary import datatypes as dt
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
-from drive_bridge.config.model import AxisConfig
+from drive_bridge.model import AxisConfig
 from drive_bridge.families import get_family
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -22,8 +22,8 @@ from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.modes import (CYCLIC_MODES, POSITION_MODES, SUPPORT_BITS, TORQUE_MODES,
                                        VELOCITY_MODES, Mode, mode_name, parse_mode)
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.config.model import AxisConfig, Timeouts
-from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.model import AxisConfig, Timeouts
+from drive_bridge.cia301.emcy import EmcyEvent
 
 HOLD_COMMAND = {
     State.READY_TO_SWITCH_ON: sm.CMD_SHUTDOWN,

@@ -15,7 +15,7 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import POSITION_MODES, SHORT_NAMES, TORQUE_MODES, VELOCITY_MODES, mode_name, parse_mode
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.model import AxisConfig, AxisLimits, HomingConfig, JointType
+from drive_bridge.model import AxisConfig, AxisLimits, HomingConfig, JointType
 from drive_bridge.config.odcheck import hex_index, known_name
 from drive_bridge.config.reader import Section, describe, to_str
 from drive_bridge.config.scaling import parse_scaling

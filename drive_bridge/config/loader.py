@@ -11,7 +11,7 @@ import can
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
+from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
 from drive_bridge.config.reader import Section, describe, suggestion

@@ -17,7 +17,7 @@ from drive_bridge.config import keys
 from drive_bridge.config.axes import AxisDraft, check_axis_objects, parse_axes
 from drive_bridge.config.eds import EdsError, read_object_dictionary
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.model import Identity, MasterConfig, NodeConfig, Timeouts
+from drive_bridge.model import Identity, MasterConfig, NodeConfig, Timeouts
 from drive_bridge.config.pdo import PdoDraft, family_drafts, parse_pdo_table, resolve_pdo
 from drive_bridge.config.reader import Section, describe, suggestion
 from drive_bridge.config.sdo import parse_boot_sdo

@@ -12,7 +12,7 @@ from canopen.objectdictionary import ODArray, ODRecord, ODVariable
 from canopen.objectdictionary import datatypes as dt
 
 from drive_bridge.cia402 import objects as cia402
-from drive_bridge.config.model import SdoScalar
+from drive_bridge.model import SdoScalar
 from drive_bridge.config.reader import describe, parse_int_text
 
 TYPE_NAMES: dict[int, str] = {value: name for name, value in vars(dt).items()

@@ -12,7 +12,7 @@ from canopen.objectdictionary import ODArray, ODRecord
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.model import PdoConfig, PdoEntry
+from drive_bridge.model import PdoConfig, PdoEntry
 from drive_bridge.config.odcheck import (
     hex_cob,
     hex_index,

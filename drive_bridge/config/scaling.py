@@ -10,7 +10,7 @@ import math
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.model import AxisScaling, JointType
+from drive_bridge.model import AxisScaling, JointType
 from drive_bridge.config.reader import Section, describe
 
 RECIPROCAL_TOLERANCE = 1e-9

@@ -8,7 +8,7 @@ from canopen import ObjectDictionary
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.model import SdoWriteItem
+from drive_bridge.model import SdoWriteItem
 from drive_bridge.config.odcheck import convert_value, is_writable, lookup, var_ref
 from drive_bridge.config.reader import Section, to_int
 

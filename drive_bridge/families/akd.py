@@ -40,7 +40,7 @@ from collections.abc import Mapping, Sequence
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
-from drive_bridge.config.model import AxisConfig, PdoConfig, PdoEntry
+from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 from drive_bridge.families.base import DATA_DIR, DriveFamily, predefined_cob_id, register_family
 
 SYNC_EVERY_CYCLE = 1

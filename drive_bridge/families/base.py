@@ -5,7 +5,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import ClassVar
 
-from drive_bridge.config.model import AxisConfig, PdoConfig
+from drive_bridge.model import AxisConfig, PdoConfig
 
 DATA_DIR = Path(__file__).resolve().parent / 'data'
 

@@ -10,7 +10,7 @@ from collections.abc import Callable
 
 from canopen.pdo.base import PdoMap
 
-from drive_bridge.config.model import MasterConfig, PdoConfig
+from drive_bridge.model import MasterConfig, PdoConfig
 from drive_bridge.master.node import NodeRuntime
 from drive_bridge.master.pdo import od_variable
 from drive_bridge.master.sdo import SdoError

@@ -19,11 +19,11 @@ import canopen
 
 from drive_bridge.cia402.axis import Axis, AxisSnapshot
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.config.model import BusConfig
+from drive_bridge.model import BusConfig
 from drive_bridge.master.boot import BootError, boot_node
 from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
-from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain

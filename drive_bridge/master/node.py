@@ -11,9 +11,9 @@ from enum import Enum
 
 import canopen
 
-from drive_bridge.config.model import MasterConfig, NodeConfig
+from drive_bridge.model import MasterConfig, NodeConfig
 from drive_bridge.families import get_family
-from drive_bridge.master.emcy import EmcyEvent, decode_emcy
+from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
 from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
 from drive_bridge.master.sdo_worker import SdoWorker

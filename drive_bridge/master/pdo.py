@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from canopen import ObjectDictionary
 from canopen.objectdictionary import ODVariable, datatypes as dt
 
-from drive_bridge.config.model import PdoConfig
+from drive_bridge.model import PdoConfig
 
 ObjectKey = tuple[int, int]
 # Writing an interpolation data record (0x60C1, and +0x800 per axis) pushes a new point into

@@ -9,7 +9,7 @@ from drive_bridge_interfaces.msg import AxisState, Emcy, SdoValue
 from trajectory_msgs.msg import JointTrajectory
 
 from drive_bridge.cia402.axis import AxisSnapshot
-from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.master.sdo import SdoPlain
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 from drive_bridge.ros.frames import stamp_from_seconds

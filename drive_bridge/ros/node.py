@@ -11,7 +11,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
-from drive_bridge.config.model import BusConfig
+from drive_bridge.model import BusConfig
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master

@@ -16,7 +16,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import axis_state_msg, emcy_msg
 from drive_bridge.ros.diagnostics import diagnostics

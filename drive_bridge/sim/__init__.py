@@ -2,7 +2,7 @@
 
 The bridge reaches them only through CAN frames; tests may inspect their state.
 
-- :class:`SimulatedBus` -- every node of a :class:`~drive_bridge.config.model.BusConfig`
+- :class:`SimulatedBus` -- every node of a :class:`~drive_bridge.model.BusConfig`
 - :class:`SimulatedSlave` -- a CiA 301 node (family ``generic_301``)
 - :class:`SimDrive402` -- a CiA 402 drive with 1..N axes (family ``generic_402``)
 - :class:`SimAkd` -- a Kollmorgen AKD with PVT interpolation and the AKD's quirks (family ``akd``)

@@ -104,7 +104,7 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.statemachine import (CW_OMS_4, SW_OMS_13, SW_OMS_12, SW_REMOTE, SW_TARGET_REACHED,
                                               SW_WARNING, State)
-from drive_bridge.config.model import NodeConfig
+from drive_bridge.model import NodeConfig
 from drive_bridge.sim.axis402 import ENERGISED, Axis402
 from drive_bridge.sim.drive402 import SimDrive402
 from drive_bridge.sim.emcy import EmcyProducer

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import canopen
 
-from drive_bridge.config.model import BusConfig
+from drive_bridge.model import BusConfig
 from drive_bridge.sim.registry import simulator_for
 from drive_bridge.sim.slave import NOTIFIER_CYCLE, SimulatedSlave
 

@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from drive_bridge.cia402 import objects as obj
-from drive_bridge.config.model import NodeConfig
+from drive_bridge.model import NodeConfig
 from drive_bridge.sim.axis402 import Axis402
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, OptionSpec
 from drive_bridge.sim.slave import EMCY_HEARTBEAT, SimulatedSlave

@@ -24,7 +24,7 @@ from typing import Any
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.config.model import NodeConfig
+from drive_bridge.model import NodeConfig
 from drive_bridge.sim.emcy import COB_ID_EMCY, ERROR_HISTORY, ERROR_REGISTER, EmcyProducer
 from drive_bridge.sim.faults import CommFaultInjection, CommFaults
 from drive_bridge.sim.nmt import (HEARTBEAT_BASE, NMT_COB_ID, HeartbeatConsumer, NmtCommand, NmtState,

@@ -18,7 +18,7 @@ from typing import Any
 import can
 import canopen
 
-from drive_bridge.config.model import NodeConfig
+from drive_bridge.model import NodeConfig
 from drive_bridge.families.base import DATA_DIR
 from drive_bridge.sim.registry import simulator_for
 from drive_bridge.sim.slave import NOTIFIER_CYCLE, SimulatedSlave

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from drive_bridge.cia402.axis import Axis, Setpoint
 from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.master.emcy import EmcyEvent
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (JointSample, JointSpline, Trajectory, TrajectoryError,
                                                joint_splines, validate)

@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from drive_bridge.config.model import AxisLimits
+from drive_bridge.model import AxisLimits
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ import struct
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from drive_bridge.master.emcy_codes import ERROR_REGISTER_BITS, GENERIC_EMCY
+from drive_bridge.cia301.emcy_codes import ERROR_REGISTER_BITS, GENERIC_EMCY
 
 EMCY_FORMAT = struct.Struct('<HB5s')
 
