@@ -16,12 +16,12 @@ from canopen.objectdictionary import ODVariable
 from akdtools import akd_bus
 from bustools import REPO, eventually, running, unique_channel
 from configtools import load_yaml
+from drive_bridge.cia301.cob import predefined_cob_id
+from drive_bridge.cia301.emcy import decode_emcy, describe_code
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import load_bus_config, parse_bus_config
+from drive_bridge.families import DATA_DIR, get_family
 from drive_bridge.model import AxisConfig, PdoConfig
-from drive_bridge.families import get_family
-from drive_bridge.families.base import DATA_DIR, predefined_cob_id
-from drive_bridge.cia301.emcy import decode_emcy, describe_code
 
 AKD_EDS = DATA_DIR / 'akd.eds'
 EXAMPLE = REPO / 'config' / 'akd_pvt_example.yaml'
@@ -182,7 +182,7 @@ def test_bridge_boots_the_example_and_feeds_pvt_places_from_tpdo() -> None:
         assert drive.axis().state is State.OPERATION_ENABLED
         assert drive.value(0x60C0) == -2 and drive.axis_akd.interpolation_period() == pytest.approx(0.004)
         eventually(lambda: axis.interpolation_free_slots() == 9, 1.0, '0x60C4:2 from TPDO1')
-        axis.push_interpolation_point(position=drive.axis().position + 1000, time_ms=20, velocity=0)
+        axis.push_interpolation_point(position=drive.axis().position + 1000, time_units=20, velocity=0)  # ms: the AKD PVT time unit
         eventually(lambda: axis.interpolation_free_slots() == 8, 1.0, 'one place taken (bit 4 is off)')
         snapshot = master.snapshot()
         assert snapshot.nodes[0].sdo_errors == 0 and snapshot.nodes[0].emcy == ()

@@ -14,16 +14,16 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Protocol
 
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.modes import (CYCLIC_MODES, POSITION_MODES, SUPPORT_BITS, TORQUE_MODES,
                                        VELOCITY_MODES, Mode, mode_name, parse_mode)
+from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord, standard_strategy
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.model import AxisConfig, Timeouts
-from drive_bridge.cia301.emcy import EmcyEvent
 
 HOLD_COMMAND = {
     State.READY_TO_SWITCH_ON: sm.CMD_SHUTDOWN,
@@ -36,86 +36,30 @@ HOLD_COMMAND = {
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
 
 
-class NodeIo(Protocol):
-    """What an axis needs from its node (implemented by master.node.NodeRuntime)."""
-
-    node_id: int
-    name: str
-    available: bool
-    nmt_state: str
-
-    def read(self, index: int, subindex: int = 0) -> int | float | None: ...
-    def write(self, index: int, subindex: int, value: int | float) -> None: ...
-    def stamp(self, index: int, subindex: int = 0) -> float: ...
-    def has_object(self, index: int, subindex: int = 0) -> bool: ...
-    def sdo_read(self, index: int, subindex: int = 0) -> int | float | str | bytes: ...
-    def sdo_write(self, index: int, subindex: int, value: int | float) -> None: ...
-    def emcy_history(self) -> tuple[EmcyEvent, ...]: ...
-    def add_input_listener(self, listener: Callable[[frozenset[tuple[int, int]], float], None]) -> None: ...
+DRIVE_STATE = {
+    State.UNKNOWN: DriveState.UNAVAILABLE,
+    State.NOT_READY_TO_SWITCH_ON: DriveState.DISABLED,
+    State.SWITCH_ON_DISABLED: DriveState.DISABLED,
+    State.READY_TO_SWITCH_ON: DriveState.READY,
+    State.SWITCHED_ON: DriveState.READY,
+    State.OPERATION_ENABLED: DriveState.ENABLED,
+    State.QUICK_STOP_ACTIVE: DriveState.STOPPING,
+    State.FAULT_REACTION_ACTIVE: DriveState.STOPPING,
+    State.FAULT: DriveState.FAULT,
+}
 
 
-class AxisError(Exception):
-    """An intent that could not be carried out; the message says why."""
-
-
-@dataclass(frozen=True)
-class Setpoint:
-    """A cyclic command in SI; None fields are not commanded."""
-
-    position: float | None = None
-    velocity: float | None = None
-    effort: float | None = None
-
-
-SetpointSource = Callable[[float], Setpoint | None]
-
-
-class BufferFeeder(Protocol):
-    """Feeds a drive's interpolation buffer (PVT), called each cycle in operation enabled."""
-
-    def on_cycle(self, now: float, axis: Axis) -> None: ...
-
-
-@dataclass(frozen=True)
-class AxisSnapshot:
-    """Immutable state of one axis for the ROS layer."""
-
-    joint: str
-    node_id: int
-    node_name: str
-    slot: int
-    available: bool
-    nmt_state: str
-    state: State
-    statusword: int
-    controlword: int
-    mode: int  # modes of operation display (0x6061)
-    requested_mode: int  # what the bridge writes to 0x6060
-    position: float  # SI (rad or m); NaN when never received
-    velocity: float
-    effort: float
-    stamp: float  # epoch seconds when the position was received
-    fault: bool
-    warning: bool
-    target_reached: bool
-    internal_limit: bool
-    following_error: bool
-    halted: bool
-    command_stale: bool  # the command dead-man is holding the axis
-    last_emcy: EmcyEvent | None
-    message: str
-
-    @property
-    def mode_name(self) -> str:
-        return mode_name(self.mode)
+class AxisError(JointError):
+    """An intent on a CiA 402 axis that could not be carried out; the message says why."""
 
 
 class Axis:
     """A CiA 402 axis of one node slot, mapped to one joint."""
 
     def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float = 0.004,
-                 accepted_modes: frozenset[int] | None = None) -> None:
+                 accepted_modes: frozenset[int] | None = None, profile: Cia402Profile | None = None) -> None:
         self.node = node
+        self.profile = profile
         self.config = config
         self.timeouts = timeouts
         self.cycle_period = cycle_period  # s; also the interpolation period written to 0x60C2
@@ -124,18 +68,20 @@ class Axis:
         self.key = {name: (obj.for_axis(index, slot), 0) for name, index in (
             ('controlword', obj.CONTROLWORD), ('statusword', obj.STATUSWORD),
             ('mode', obj.MODES_OF_OPERATION), ('mode_display', obj.MODES_OF_OPERATION_DISPLAY),
-            ('position', obj.POSITION_ACTUAL), ('velocity', obj.VELOCITY_ACTUAL),
-            ('torque', obj.TORQUE_ACTUAL), ('target_position', obj.TARGET_POSITION),
-            ('target_velocity', obj.TARGET_VELOCITY), ('target_torque', obj.TARGET_TORQUE),
             ('supported_modes', obj.SUPPORTED_DRIVE_MODES), ('homing_method', obj.HOMING_METHOD),
             ('home_offset', obj.HOME_OFFSET), ('homing_acceleration', obj.HOMING_ACCELERATION),
             ('error_code', obj.ERROR_CODE), ('ip_submode', obj.INTERPOLATION_SUB_MODE))}
+        objects = profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot)
+        self.key.update(position=objects.position_actual, velocity=objects.velocity_actual,
+                        torque=objects.effort_actual, target_position=objects.target_position,
+                        target_velocity=objects.target_velocity, target_torque=objects.target_effort)
         ip = (lambda index, sub: (obj.for_axis(index, slot), sub))
-        self.key.update(ip_position=ip(obj.INTERPOLATION_DATA_RECORD, 1), ip_time=ip(obj.INTERPOLATION_DATA_RECORD, 2),
-                        ip_velocity=ip(obj.INTERPOLATION_DATA_RECORD, 3),
+        self.key.update(ip_position=ip(obj.INTERPOLATION_DATA_RECORD, 1),
                         ip_units=ip(obj.INTERPOLATION_TIME_PERIOD, 1), ip_index=ip(obj.INTERPOLATION_TIME_PERIOD, 2),
                         ip_free=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 2),
                         ip_clear=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 6))
+        self.pvt: PvtRecord | None = profile.pvt_record(slot) if profile is not None else None
+        self.fault_model: FaultModel = profile.fault_model if profile is not None else FaultModel()
         self._cond = threading.Condition()
         self._target_state: State | None = None
         self._halt = False
@@ -156,7 +102,8 @@ class Axis:
         self._message = ''
         self._reset_emcy_count = 0
         self.supported_modes: int | None = None  # 0x6502, read on the first mode change
-        self.accepted_modes = accepted_modes  # the drive family's list, when 0x6502 under-reports
+        # the drive family's list, when 0x6502 under-reports
+        self.accepted_modes = profile.accepted_modes if profile is not None and accepted_modes is None else accepted_modes
         node.add_input_listener(self._on_input)
 
     # -- bus side ---------------------------------------------------------------------------
@@ -172,6 +119,19 @@ class Axis:
     def ready(self) -> bool:
         """The axis has seen a statusword, so its controlword can be decided safely."""
         return self._value('statusword') is not None
+
+    @property
+    def node_id(self) -> int:
+        return self.node.node_id
+
+    @property
+    def available(self) -> bool:
+        return self.node.available
+
+    @property
+    def drive_state(self) -> DriveState:
+        """The drive-independent state (unavailable while the node is not)."""
+        return DriveState.UNAVAILABLE if not self.node.available else DRIVE_STATE[self.state]
 
     @property
     def state(self) -> State:
@@ -216,7 +176,7 @@ class Axis:
             if state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
                 self._fault_reset_phase = 0
             else:
-                return sm.CMD_FAULT_RESET
+                return 1 << self.fault_model.reset_bit
         if self._target_state is None:
             return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)
         command = sm.next_command(state, self._target_state)
@@ -453,12 +413,35 @@ class Axis:
         value = self._value('ip_free')
         return None if value is None else int(value)
 
-    def push_interpolation_point(self, position: int, time_ms: int, velocity: int) -> None:
-        """Write one PVT record (0x60C1:3 velocity, :2 time, :1 position, in device units);
-        sent together this cycle, the drive buffers it at the next SYNC."""
-        self.node.write(*self.key['ip_velocity'], velocity)
-        self.node.write(*self.key['ip_time'], time_ms)
-        self.node.write(*self.key['ip_position'], position)
+    def pvt_time_unit(self) -> float | None:
+        """Seconds per unit of a PVT point's time (None: the family has no PVT)."""
+        return self.pvt.time_unit if self.pvt is not None else None
+
+    def push_interpolation_point(self, position: int, time_units: int, velocity: int) -> None:
+        """Write one PVT point (device units) into the family's record: velocity, time, then
+        position, sent together this cycle; the drive buffers it at the next SYNC."""
+        if self.pvt is None:
+            raise AxisError(f'{self._where()}: the drive family has no PVT interpolation')
+        self.node.write(*self.pvt.velocity, velocity)
+        self.node.write(*self.pvt.time, time_units)
+        self.node.write(*self.pvt.position, position)
+
+    def command_field(self) -> str | None:
+        """Which value a direct command of the current mode carries: position, velocity or effort."""
+        mode = self._mode
+        return ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
+                else 'effort' if mode in TORQUE_MODES else None)
+
+    def stream_strategy(self) -> str | None:
+        """How trajectories are streamed in the requested mode (the family decides)."""
+        if self.profile is not None:
+            return self.profile.streaming_strategy(self._mode, self.config.ip_submode)
+        return standard_strategy(self._mode, self.config.ip_submode, None)
+
+    def is_stream_fault(self, event: EmcyEvent) -> bool:
+        """The family says this EMCY reports an interpolation buffer underflow/overflow."""
+        return (self.profile is not None and event.node_id == self.node.node_id
+                and self.profile.is_stream_fault(event))
 
     @property
     def mode(self) -> int:
@@ -599,11 +582,13 @@ class Axis:
         statusword = self._value('statusword')
         sw = int(statusword) if statusword is not None else 0
         _available, position, velocity, effort, stamp = self.feedback()
+        mode = int(self._value('mode_display') or 0)
         return AxisSnapshot(
             joint=self.joint, node_id=self.node.node_id, node_name=self.node.name, slot=self.config.slot,
             available=self.node.available and statusword is not None, nmt_state=self.node.nmt_state,
+            drive_state=self.drive_state if statusword is not None else DriveState.UNAVAILABLE,
             state=self.state, statusword=sw, controlword=self._controlword,
-            mode=int(self._value('mode_display') or 0), requested_mode=self._mode,
+            mode=mode, mode_name=mode_name(mode), requested_mode=self._mode,
             position=position, velocity=velocity, effort=effort, stamp=stamp,
             fault=bool(sw & sm.SW_FAULT), warning=bool(sw & sm.SW_WARNING),
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),

@@ -26,7 +26,7 @@ from drive_bridge.config.odcheck import (
 )
 from drive_bridge.config.reader import Section, describe, parse_int_text
 from drive_bridge.config.sdo import read_index
-from drive_bridge.families.base import predefined_cob_id
+from drive_bridge.cia301.cob import predefined_cob_id
 
 Kind = Literal['rpdo', 'tpdo']
 MAX_PDO_BITS = 64

@@ -40,8 +40,11 @@ from collections.abc import Mapping, Sequence
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
+from drive_bridge.cia402.profile import PvtRecord
 from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
-from drive_bridge.families.base import DATA_DIR, DriveFamily, predefined_cob_id, register_family
+from drive_bridge.cia301.cob import predefined_cob_id
+from drive_bridge.families.interface import DATA_DIR, DriveFamily
+from drive_bridge.families.registry import register_family
 
 SYNC_EVERY_CYCLE = 1
 EVENT_DRIVEN = 255  # the AKD knows no type 254
@@ -247,6 +250,12 @@ class Akd(DriveFamily):
     default_modes = {'mode': 'ip', 'position_mode': 'ip', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
     accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
                                 Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION})
+
+    def pvt_record(self, slot: int) -> PvtRecord | None:
+        """The AKD's PVT point: 0x60C1:1 position (counts), :2 time (ms), :3 velocity
+        (counts/s); the drive takes it once all three arrived (akd.md §7.2.2.2)."""
+        record = obj.for_axis(obj.INTERPOLATION_DATA_RECORD, slot)
+        return PvtRecord(position=(record, 1), time=(record, 2), velocity=(record, 3), time_unit=0.001)
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:

@@ -1,7 +1,8 @@
 """A CiA 301 node without CiA 402 (I/O modules, proxies): booted, monitored, SDO/PDO only."""
 from __future__ import annotations
 
-from drive_bridge.families.base import DriveFamily, register_family
+from drive_bridge.families.interface import DriveFamily
+from drive_bridge.families.registry import register_family
 
 
 @register_family

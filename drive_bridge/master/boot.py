@@ -1,7 +1,9 @@
-"""Booting one node: boot-up, identity, boot SDOs, PDO mapping, heartbeat, start.
+"""Booting one node: boot-up, identity, the family's first steps, boot SDOs, PDOs,
+supervision (heartbeat or node guarding), SYNC period, the family's last steps, start.
 
 Each step names itself in a :class:`BootError` (node, step, object, abort code), so an
-integrator reads what failed, not only that the boot failed.
+integrator reads what failed, not only that the boot failed. What differs between drive
+lines (how boot-up shows, how PDOs are set, extra steps) the node's family answers.
 """
 from __future__ import annotations
 
@@ -10,17 +12,25 @@ from collections.abc import Callable
 
 from canopen.pdo.base import PdoMap
 
-from drive_bridge.model import MasterConfig, PdoConfig
+from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.errors import DriveBridgeError
+from drive_bridge.families import BootDetection, Liveness, PdoConfiguration
+from drive_bridge.families.ports import BootStep
 from drive_bridge.master.node import NodeRuntime
 from drive_bridge.master.pdo import od_variable
 from drive_bridge.master.sdo import SdoError
+from drive_bridge.model import MasterConfig, PdoConfig
 
 NMT_START = 0x01
 NMT_RESET_COMMUNICATION = 0x82
 COB_ID_INVALID = 0x80000000
 
 
-class BootError(Exception):
+PROBE_INTERVAL = 0.05  # s between SDO probes of a node that announces no boot-up
+PROBE_TIMEOUT = 0.1
+
+
+class BootError(DriveBridgeError):
     """A boot step failed."""
 
     def __init__(self, node: NodeRuntime, step: str, message: str, abort_code: int = 0) -> None:
@@ -40,19 +50,51 @@ def _has(node: NodeRuntime, index: int, subindex: int = 0) -> bool:
     return od_variable(node.config.od, index, subindex) is not None
 
 
+def _announcement(node: NodeRuntime) -> str:
+    detection = node.family.boot_detection
+    if detection is BootDetection.EMCY:
+        return f'boot-up EMCY (COB-ID 0x{0x80 + node.node_id:03X})'
+    if detection is BootDetection.PROBE:
+        return 'answer to an SDO probe of 0x1000'
+    return f'boot-up message (COB-ID 0x{0x700 + node.node_id:03X})'
+
+
+def _probe(node: NodeRuntime, deadline: float) -> bool:
+    """SDO-read 0x1000 until the node answers or the deadline passes."""
+    while time.monotonic() < deadline:
+        try:
+            node.sdo.read(0x1000, 0)
+            return True
+        except SdoError as exc:
+            if exc.abort_code:  # an abort is an answer: the node is up
+                return True
+        time.sleep(PROBE_INTERVAL)
+    return False
+
+
 def wait_for_bootup(node: NodeRuntime) -> None:
-    """Reset communication and wait for the boot-up message, or (without a reset) for
-    the node's boot-up or first heartbeat."""
+    """Reset communication and wait for the node's boot-up announcement (the family says
+    which: boot-up frame, an EMCY, or none, then an SDO probe); without a reset, for the
+    announcement, a heartbeat, or (no heartbeat) an answer to an SDO probe."""
     timeout = node.config.timeouts.boot
+    detection = node.family.boot_detection
     if node.config.reset_communication:
         node.bootup_seen.clear()
         node.remote.nmt.send_command(NMT_RESET_COMMUNICATION)
-        if not node.bootup_seen.wait(timeout):
+        if detection is BootDetection.PROBE:
+            up = _probe(node, time.monotonic() + timeout)
+        else:
+            up = node.bootup_seen.wait(timeout)
+        if not up:
             raise BootError(node, 'reset communication',
-                            f'no boot-up message (COB-ID 0x{0x700 + node.node_id:03X}) within '
-                            f'{timeout * 1000:.0f} ms of NMT reset communication')
+                            f'no {_announcement(node)} within {timeout * 1000:.0f} ms of NMT reset communication')
         return
     deadline = time.monotonic() + timeout
+    if node.liveness is not Liveness.HEARTBEAT:
+        if not (node.bootup_seen.is_set() or _probe(node, deadline)):
+            raise BootError(node, 'wait for boot-up', f'no {_announcement(node)} and no answer to an SDO '
+                                                      f'probe of 0x1000 within {timeout * 1000:.0f} ms')
+        return
     while node.last_heartbeat is None and not node.bootup_seen.is_set():
         if time.monotonic() > deadline:
             raise BootError(node, 'wait for boot-up',
@@ -87,13 +129,16 @@ def run_boot_sdos(node: NodeRuntime) -> None:
 
 
 def _write_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str) -> None:
+    """Free mapping through canopen's PdoMap (communication and mapping parameters); only
+    the communication sub-indices the family says the node has are written."""
+    subs = node.family.pdo_comm_subindices
     pdo_map.clear()
     pdo_map.cob_id = config.cob_id
     pdo_map.trans_type = config.transmission
     if kind == 'TPDO':
-        pdo_map.inhibit_time = config.inhibit_time or None
-        pdo_map.event_timer = config.event_timer
-        pdo_map.sync_start_value = config.sync_start or None
+        pdo_map.inhibit_time = (config.inhibit_time or None) if 3 in subs else None
+        pdo_map.event_timer = config.event_timer if 5 in subs else None
+        pdo_map.sync_start_value = (config.sync_start or None) if 6 in subs else None
     for entry in config.mapping:
         pdo_map.add_variable(entry.index, entry.subindex, entry.bits)
     pdo_map.enabled = config.enabled
@@ -101,6 +146,21 @@ def _write_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str)
     # the bridge decodes process data itself (master/pdo.py), so canopen's own
     # per-frame handler would only cost time in the Notifier thread
     node.network.unsubscribe(config.cob_id, pdo_map.on_message)
+
+
+def _select_pdo(node: NodeRuntime, config: PdoConfig, kind: str, comm_index: int) -> None:
+    """A predefined PDO chosen by the family's SDO writes, then its COB-ID and transmission
+    type (and, for TPDOs, the other sub-indices the node has)."""
+    for index, subindex, value in node.family.select_pdo(kind, config):
+        node.sdo.write(index, subindex, value)
+    subs = node.family.pdo_comm_subindices
+    cob_id = config.cob_id | (0 if config.enabled else COB_ID_INVALID)
+    writes = [(1, cob_id), (2, config.transmission)]
+    if kind == 'TPDO':
+        writes += [(sub, value) for sub, value in ((3, config.inhibit_time), (5, config.event_timer),
+                                                   (6, config.sync_start)) if sub in subs and value]
+    for subindex, value in writes:
+        node.sdo.write(comm_index, subindex, value)
 
 
 def configure_pdos(node: NodeRuntime) -> None:
@@ -116,7 +176,10 @@ def configure_pdos(node: NodeRuntime) -> None:
                 raise BootError(node, step, f'the EDS has no {kind}{config.number} '
                                             f'(0x{comm_base + config.number - 1:04X})') from None
             try:
-                _write_pdo(node, pdo_map, config, kind)
+                if node.family.pdo_configuration is PdoConfiguration.SELECT_BY_NUMBER:
+                    _select_pdo(node, config, kind, comm_base + config.number - 1)
+                else:
+                    _write_pdo(node, pdo_map, config, kind)
             except SdoError as exc:
                 raise BootError(node, step, str(exc), exc.abort_code) from exc
             except Exception as exc:  # canopen raises its own SDO errors from PdoMap.save
@@ -134,6 +197,8 @@ def configure_pdos(node: NodeRuntime) -> None:
 
 
 def configure_heartbeat(node: NodeRuntime, master: MasterConfig) -> None:
+    if node.liveness is Liveness.GUARDING:
+        return  # configure_guarding: the two exclude each other
     if _has(node, 0x1017):
         _sdo_step(node, 'heartbeat producer',
                   lambda: node.sdo.write(0x1017, 0, node.config.heartbeat_producer_ms))
@@ -151,27 +216,60 @@ def configure_sync(node: NodeRuntime, master: MasterConfig) -> None:
 
 
 def start_node(node: NodeRuntime) -> None:
-    """NMT start, then (with a heartbeat) wait until the node reports OPERATIONAL."""
+    """NMT start, then wait until the node reports OPERATIONAL (heartbeat or guarding
+    reply); a node without either is taken as operational once started."""
     node.remote.nmt.send_command(NMT_START)
-    if not node.config.heartbeat_producer_ms:
+    if node.liveness is Liveness.NONE:
+        node.nmt_state = NmtState.OPERATIONAL
         return
     timeout = node.config.timeouts.boot
     deadline = time.monotonic() + timeout
-    while node.nmt_state != 'OPERATIONAL':
+    if node.liveness is Liveness.GUARDING:
+        node.nmt_state = NmtState.UNKNOWN  # the next guarding reply tells
+    while node.nmt_state is not NmtState.OPERATIONAL:
         if time.monotonic() > deadline:
             raise BootError(node, 'start', f'node still reports {node.nmt_state} {timeout * 1000:.0f} ms '
                                            'after NMT start')
         time.sleep(0.005)
 
 
+def _family_step(node: NodeRuntime, step: BootStep) -> tuple[str, Callable[[], None]]:
+    name, action = step
+
+    def run() -> None:
+        try:
+            action(node)
+        except BootError:
+            raise
+        except SdoError as exc:
+            raise BootError(node, name, str(exc), exc.abort_code) from exc
+        except DriveBridgeError as exc:
+            raise BootError(node, name, str(exc)) from exc
+    return name, run
+
+
+def configure_guarding(node: NodeRuntime) -> None:
+    """Node guarding: 0x1017 = 0 first (many drives drop guarding once a heartbeat time is
+    set), then guard time 0x100C and life time factor 0x100D."""
+    if node.liveness is not Liveness.GUARDING:
+        return
+    from drive_bridge.master.guarding import configure_guarding as write_guarding
+    _sdo_step(node, 'node guarding', lambda: write_guarding(
+        node.sdo_write, node.has_object, node.config.guard_time_ms, node.config.life_time_factor))
+
+
 def boot_node(node: NodeRuntime, master: MasterConfig, progress: Callable[[str], None]) -> None:
     """The whole boot of one node; raises BootError at the first failing step."""
+    family = node.family
     steps = (('boot-up', lambda: wait_for_bootup(node)),
              ('identity', lambda: check_identity(node)),
+             *(_family_step(node, step) for step in family.boot_steps_before(node)),
              ('boot SDOs', lambda: run_boot_sdos(node)),
              ('PDO mapping', lambda: configure_pdos(node)),
              ('heartbeat', lambda: configure_heartbeat(node, master)),
+             ('node guarding', lambda: configure_guarding(node)),
              ('SYNC period', lambda: configure_sync(node, master)),
+             *(_family_step(node, step) for step in family.boot_steps_after(node)),
              ('start', lambda: start_node(node)))
     for name, step in steps:
         progress(f'node {node.node_id} ({node.name}): {name}')

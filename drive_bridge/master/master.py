@@ -17,17 +17,17 @@ from dataclasses import dataclass
 import can
 import canopen
 
-from drive_bridge.cia402.axis import Axis, AxisSnapshot
-from drive_bridge.cia402.statemachine import State
-from drive_bridge.model import BusConfig
+from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
 from drive_bridge.master.boot import BootError, boot_node
 from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
-from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
+from drive_bridge.model import BusConfig
 
 log = logging.getLogger('drive_bridge.master')
 
@@ -62,7 +62,7 @@ class Master:
         self.bus: TappedBus | None = None
         self.network = canopen.Network()
         self.nodes: dict[str, NodeRuntime] = {}
-        self.axes: dict[str, Axis] = {}
+        self.axes: dict[str, JointDriver] = {}
         self._by_id: dict[int, NodeRuntime] = {}
         self._adhoc: dict[int, SdoChannel] = {}
         self._adhoc_lock = threading.Lock()
@@ -126,8 +126,8 @@ class Master:
             self._by_id[node.node_id] = node
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
-                self.axes[axis_cfg.joint] = Axis(node, axis_cfg, node_cfg.timeouts, period,
-                                                 node.family.accepted_modes)
+                self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
+                                                                            period)
         self._start_cycle()
         if cfg.master.heartbeat_producer_ms:
             self._heartbeat_task = self.network.send_periodic(
@@ -162,7 +162,7 @@ class Master:
         """Quick-stop enabled axes (bounded wait), then stop SYNC, heartbeat and the bus."""
         if not self.started:
             return
-        enabled = [a for a in self.axes.values() if a.node.available and a.state is State.OPERATION_ENABLED]
+        enabled = [a for a in self.axes.values() if a.drive_state is DriveState.ENABLED]
         for axis in enabled:
             try:
                 axis.quick_stop(timeout=stop_timeout)
@@ -238,7 +238,7 @@ class Master:
                        f'node {node.node_id} ({node.name}): heartbeat lost, none for {age * 1000:.0f} ms '
                        f'(limit {node.heartbeat_timeout * 1000:.0f} ms); its axes are unavailable', node)
         elif node.boot_state is BootState.LOST and age < node.heartbeat_timeout:
-            if node.nmt_state == 'OPERATIONAL':
+            if node.nmt_state is NmtState.OPERATIONAL:
                 node.set_boot_state(BootState.OPERATIONAL)
                 self._emit(EventKind.HEARTBEAT_BACK, Level.WARN,
                            f'node {node.node_id} ({node.name}): heartbeat back, node operational', node)

@@ -1,5 +1,6 @@
 """One configured node at run time: its canopen RemoteNode, SDO channel, process data,
-NMT/heartbeat bookkeeping and EMCY history."""
+NMT/liveness bookkeeping and EMCY history. Its drive family decodes its EMCYs, says how its
+boot-up shows and how it is supervised."""
 from __future__ import annotations
 
 import threading
@@ -11,14 +12,16 @@ from enum import Enum
 
 import canopen
 
-from drive_bridge.model import MasterConfig, NodeConfig
-from drive_bridge.families import get_family
-from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
+from canopen.objectdictionary import datatypes as dt
+
+from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.families import BootDetection, Liveness, get_family
 from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
 from drive_bridge.master.sdo_worker import SdoWorker
+from drive_bridge.model import MasterConfig, NodeConfig
 
-NMT_STATES = {0: 'INITIALISING', 4: 'STOPPED', 5: 'OPERATIONAL', 127: 'PRE-OPERATIONAL'}
 EMCY_HISTORY = 32
 
 
@@ -29,7 +32,7 @@ class BootState(str, Enum):
     BOOTING = 'booting'
     OPERATIONAL = 'operational'  # configured and started
     FAILED = 'failed'  # boot failed; retried periodically
-    LOST = 'lost'  # heartbeat lost after it was operational
+    LOST = 'lost'  # heartbeat or guarding lost after it was operational
 
 
 @dataclass(frozen=True)
@@ -40,9 +43,9 @@ class NodeSnapshot:
     node_id: int
     family: str
     boot_state: BootState
-    nmt_state: str
+    nmt_state: NmtState
     available: bool
-    heartbeat_age: float | None  # seconds since the last heartbeat, None if never seen
+    heartbeat_age: float | None  # seconds since the last heartbeat / guarding reply, None if never seen
     boot_attempts: int
     boot_error: str
     sdo_errors: int
@@ -50,6 +53,7 @@ class NodeSnapshot:
     pdo_errors: int
     last_pdo_error: str
     emcy: tuple[EmcyEvent, ...]  # newest last
+    liveness: str = 'heartbeat'  # heartbeat, node guarding or none
 
 
 class NodeRuntime:
@@ -65,20 +69,22 @@ class NodeRuntime:
         # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
         network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
         network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
-        self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
+        self.liveness = self.family.liveness(config)
+        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
+            self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
         self.sdo = SdoChannel(self.remote, config.timeouts.sdo, config.timeouts.sdo_retries)
-        self.process = ProcessImage(config.od, config.rpdo, config.tpdo)
+        self.process = ProcessImage(config.od, config.rpdo, config.tpdo, self.family.sent_on_write)
         for cob_id in self.process.rx_layouts:
             network.subscribe(cob_id, self.process.on_tpdo)
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
         self.heartbeat_timeout = (config.heartbeat_producer_ms * master.heartbeat_multiplier / 1000.0
-                                  if config.heartbeat_producer_ms and master.heartbeat_consumer else 0.0)
+                                  if self.liveness is Liveness.HEARTBEAT and master.heartbeat_consumer else 0.0)
         self.boot_state = BootState.WAITING
         self.boot_attempts = 0
         self.boot_error = ''
         self.next_boot_time = 0.0
-        self.nmt_state = 'UNKNOWN'
+        self.nmt_state = NmtState.UNKNOWN
         self.last_heartbeat: float | None = None
         self.bootup_seen = threading.Event()
         self._emcy: deque[EmcyEvent] = deque(maxlen=EMCY_HISTORY)
@@ -97,18 +103,31 @@ class NodeRuntime:
     @property
     def available(self) -> bool:
         """Process data can be trusted: booted, started, and its heartbeat is alive."""
-        return self.boot_state is BootState.OPERATIONAL and self.nmt_state == 'OPERATIONAL'
+        return self.boot_state is BootState.OPERATIONAL and self.nmt_state is NmtState.OPERATIONAL
 
     # events from the bus (Notifier thread) ---------------------------------------
     def _on_heartbeat(self, state: int) -> None:
-        self.last_heartbeat = time.monotonic()
-        self.nmt_state = NMT_STATES.get(state, f'UNKNOWN({state})')
         if state == 0:
             self.bootup_seen.set()
+        if self.liveness is Liveness.HEARTBEAT:
+            self.last_heartbeat = time.monotonic()
+            self.nmt_state = NmtState.from_code(state)
+        elif state == 0:  # a boot-up frame of a guarded node: it starts in pre-operational
+            self.nmt_state = NmtState.PRE_OPERATIONAL
+        self._notify()
+
+    def on_alive(self, state: NmtState) -> None:
+        """A liveness sign other than a heartbeat (a node guarding reply)."""
+        self.last_heartbeat = time.monotonic()
+        self.nmt_state = state
         self._notify()
 
     def _on_emcy_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        event = decode_emcy(self.node_id, self.name, bytes(data), timestamp, self.family.emcy_texts)
+        payload = bytes(data)
+        if self.family.boot_detection is BootDetection.EMCY and self.family.is_bootup_emcy(payload):
+            self.bootup_seen.set()
+            self.nmt_state = NmtState.PRE_OPERATIONAL
+        event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
         self._emcy.append(event)
         self._on_emcy(event)
         self._notify()
@@ -153,6 +172,16 @@ class NodeRuntime:
     def sdo_write(self, index: int, subindex: int, value: int | float) -> None:
         self.sdo.write(index, subindex, value)
 
+    def sdo_read_raw(self, index: int, subindex: int = 0) -> bytes:
+        """Blocking SDO read of the bytes as they are (visible strings, domains)."""
+        return self.sdo.read(index, subindex, dt.DOMAIN)[2]
+
+    def sdo_write_raw(self, index: int, subindex: int, data: bytes) -> None:
+        self.sdo.write(index, subindex, bytes(data), dt.DOMAIN)
+
+    def send_nmt(self, command: int) -> None:
+        self.remote.nmt.send_command(command)
+
     def add_input_listener(self, listener: Callable[[frozenset[ObjectKey], float], None]) -> None:
         self.process.add_input_listener(listener)
 
@@ -171,7 +200,7 @@ class NodeRuntime:
                 heartbeat_age=age, boot_attempts=self.boot_attempts, boot_error=self.boot_error,
                 sdo_errors=self.sdo.errors, last_sdo_error=self.sdo.last_error,
                 pdo_errors=self.process.rx_errors, last_pdo_error=self.process.last_rx_error,
-                emcy=tuple(self._emcy))
+                emcy=tuple(self._emcy), liveness=self.liveness.value)
 
     def close(self) -> None:
         self.worker.stop()

@@ -18,13 +18,14 @@ from canopen.objectdictionary import ODVariable, datatypes as dt
 from drive_bridge.model import PdoConfig
 
 ObjectKey = tuple[int, int]
-# Writing an interpolation data record (0x60C1, and +0x800 per axis) pushes a new point into
-# the drive's buffer, so an RPDO carrying one is sent only when written, not every cycle.
-INTERPOLATION_DATA_RECORD = 0x60C1
+# Whether an RPDO carrying an object goes out only in a cycle that wrote it (the drive
+# family says: writing an interpolation point pushes it into the drive's buffer).
+SentOnWrite = Callable[[int, int], bool]
 
 
-def is_buffered_entry(index: int) -> bool:
-    return index >= 0x6000 and (index - INTERPOLATION_DATA_RECORD) % 0x800 == 0
+def _never(_index: int, _subindex: int) -> bool:
+    return False
+
 _FLOAT = {dt.REAL32: struct.Struct('<f'), dt.REAL64: struct.Struct('<d')}
 
 
@@ -101,7 +102,8 @@ class ProcessImage:
     under the GIL) and read by anyone; outputs are set by intents and packed by the cycle.
     """
 
-    def __init__(self, od: ObjectDictionary, rpdos: Iterable[PdoConfig], tpdos: Iterable[PdoConfig]) -> None:
+    def __init__(self, od: ObjectDictionary, rpdos: Iterable[PdoConfig], tpdos: Iterable[PdoConfig],
+                 sent_on_write: SentOnWrite = _never) -> None:
         self.rx_layouts = {p.cob_id: compile_pdo(p, od) for p in tpdos if p.enabled}
         self.tx_layouts = [compile_pdo(p, od) for p in rpdos if p.enabled]
         self.inputs: dict[ObjectKey, int | float] = {}
@@ -111,7 +113,7 @@ class ProcessImage:
         self.last_rx_error = ''
         self._outputs: dict[int, int] = {i: 0 for i in range(len(self.tx_layouts))}
         self._on_demand = {i for i, layout in enumerate(self.tx_layouts)
-                           if any(is_buffered_entry(f.key[0]) for f in layout.fields)}
+                           if any(sent_on_write(*f.key) for f in layout.fields)}
         self._written: set[int] = set()
         self._output_fields: dict[ObjectKey, tuple[int, PdoField]] = {
             f.key: (i, f) for i, layout in enumerate(self.tx_layouts) for f in layout.fields}

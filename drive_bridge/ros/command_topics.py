@@ -15,8 +15,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
-from drive_bridge.cia402.axis import AxisError
-from drive_bridge.cia402.modes import POSITION_MODES, TORQUE_MODES, VELOCITY_MODES
+from drive_bridge.joint import JointError
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.parameters import BridgeParameters
@@ -87,7 +86,7 @@ class CommandTopics:
         try:
             for joint, command in commands.items():
                 self.master.axes[joint].check_command(**command)
-        except AxisError as exc:
+        except JointError as exc:
             self.refuse(topic, str(exc))
             return
         self.executor.stop(list(commands), f'replaced by a command on {topic}')
@@ -122,9 +121,7 @@ class CommandTopics:
                 return
         commands: dict[str, dict[str, float | None]] = {}
         for i, joint in enumerate(msg.name):
-            mode = self.master.axes[joint].mode
-            field = ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
-                     else 'effort' if mode in TORQUE_MODES else None)
+            field = self.master.axes[joint].command_field()
             value = finite_or_none(getattr(msg, field), i) if field else None
             if value is not None:
                 commands[joint] = {field: value}

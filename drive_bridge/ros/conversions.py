@@ -8,7 +8,7 @@ from canopen.objectdictionary import datatypes as dt
 from drive_bridge_interfaces.msg import AxisState, Emcy, SdoValue
 from trajectory_msgs.msg import JointTrajectory
 
-from drive_bridge.cia402.axis import AxisSnapshot
+from drive_bridge.joint import AxisSnapshot
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.master.sdo import SdoPlain
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
@@ -64,9 +64,11 @@ def axis_state_msg(snapshot: AxisSnapshot) -> AxisState:
     msg.node_id = snapshot.node_id
     msg.axis = snapshot.slot
     msg.available = snapshot.available
-    msg.nmt_state = snapshot.nmt_state
+    msg.nmt_state = str(snapshot.nmt_state)
     msg.state = int(snapshot.state)
     msg.state_name = snapshot.state.label
+    msg.drive_state = int(snapshot.drive_state)
+    msg.drive_state_name = snapshot.drive_state.label
     msg.mode = max(-128, min(127, snapshot.mode))
     msg.mode_name = snapshot.mode_name
     msg.statusword = snapshot.statusword

@@ -5,8 +5,7 @@ import math
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-from drive_bridge.cia402.axis import AxisSnapshot
-from drive_bridge.cia402.statemachine import State
+from drive_bridge.joint import AxisSnapshot, DriveState
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.node import BootState, NodeSnapshot
 
@@ -70,7 +69,7 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
                               hardware_id=f'canopen node {axis.node_id} axis {axis.slot}')
     if not axis.available:
         status.level, status.message = ERROR, f'unavailable (NMT {axis.nmt_state})'
-    elif axis.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+    elif axis.drive_state is DriveState.FAULT or (axis.fault and axis.drive_state is DriveState.STOPPING):
         emcy = f': 0x{axis.last_emcy.code:04X} {axis.last_emcy.text}' if axis.last_emcy else ''
         status.level, status.message = ERROR, f'{axis.state.label}{emcy}'
     elif axis.command_stale or axis.warning:
@@ -79,7 +78,7 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     else:
         status.level, status.message = OK, axis.state.label
     status.values = _values(
-        state=axis.state.label, mode=axis.mode_name, requested_mode=axis.requested_mode,
+        state=axis.state.label, drive_state=axis.drive_state.label, mode=axis.mode_name, requested_mode=axis.requested_mode,
         statusword=f'0x{axis.statusword:04X}', controlword=f'0x{axis.controlword:04X}',
         position='' if math.isnan(axis.position) else f'{axis.position:.6f}',
         velocity='' if math.isnan(axis.velocity) else f'{axis.velocity:.6f}',

@@ -12,7 +12,7 @@ from rclpy.node import Node
 
 from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
 from drive_bridge.model import BusConfig
-from drive_bridge.cia402.statemachine import State
+from drive_bridge.joint import DriveState
 from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master
 from drive_bridge.ros.command_topics import CommandTopics
@@ -99,7 +99,7 @@ class Bridge:
         if active:
             for joint in sorted(self._held):
                 axis = self.master.axes[joint]
-                if axis.node.available:
+                if axis.available:
                     axis.halt(False)
             self._held.clear()
             if self.params.auto_enable:
@@ -107,7 +107,7 @@ class Bridge:
             return
         self.trajectories.stop(list(self.master.axes), 'bridge deactivated', smooth=True)
         for joint, axis in self.master.axes.items():
-            if axis.node.available and axis.state is State.OPERATION_ENABLED and not axis.snapshot().halted:
+            if axis.drive_state is DriveState.ENABLED and not axis.snapshot().halted:
                 axis.halt(True)
                 self._held.add(joint)
 

@@ -17,15 +17,14 @@ from drive_bridge_interfaces.srv import AxisCommand, NmtCommand, SdoRead, SdoWri
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
-from drive_bridge.cia402.axis import Axis, AxisError
-from drive_bridge.cia402.modes import parse_mode
+from drive_bridge.joint import JointDriver, JointError
 from drive_bridge.master.master import NMT_COMMANDS, Master
 from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 T = TypeVar('T')
-AxisAction = Callable[[Axis, float | None], str | None]
+AxisAction = Callable[[JointDriver, float | None], str | None]
 
 
 class BridgeServices:
@@ -120,23 +119,23 @@ class BridgeServices:
     def _joints(self, names: list[str]) -> list[str]:
         unknown = [n for n in names if n not in self.master.axes]
         if unknown:
-            raise AxisError(f'unknown joint(s) {", ".join(unknown)}; this bus has {", ".join(self.master.axes)}')
+            raise JointError(f'unknown joint(s) {", ".join(unknown)}; this bus has {", ".join(self.master.axes)}')
         return list(names) or list(self.master.axes)
 
-    def _enable(self, axis: Axis, timeout: float | None) -> None:
+    def _enable(self, axis: JointDriver, timeout: float | None) -> None:
         if not self.active:
-            raise AxisError('the bridge is deactivated: activate it before enabling axes')
+            raise JointError('the bridge is deactivated: activate it before enabling axes')
         axis.enable(timeout)
 
-    def _halt(self, axis: Axis, timeout: float | None) -> None:
+    def _halt(self, axis: JointDriver, timeout: float | None) -> None:
         self.executor.stop([axis.joint], 'halted')
         axis.halt(True)
 
-    def _quick_stop(self, axis: Axis, timeout: float | None) -> None:
+    def _quick_stop(self, axis: JointDriver, timeout: float | None) -> None:
         self.executor.stop([axis.joint], 'quick stop')
         axis.quick_stop(timeout)
 
-    def _recover(self, axis: Axis, timeout: float | None) -> None:
+    def _recover(self, axis: JointDriver, timeout: float | None) -> None:
         axis.reset_fault(timeout)
         self._enable(axis, timeout)
 
@@ -148,31 +147,30 @@ class BridgeServices:
         return handle
 
     async def set_mode(self, request: SetMode.Request, response: SetMode.Response) -> SetMode.Response:
-        try:
-            mode = parse_mode(request.mode)
-        except ValueError as exc:
-            response.success, response.message = False, str(exc)
+        mode = request.mode.strip()
+        if not mode:
+            response.success, response.message = False, 'set_mode: no mode given'
             return response
         timeout = request.timeout if request.timeout > 0 else None
 
-        def change(axis: Axis) -> None:
+        def change(axis: JointDriver) -> None:
             self.executor.stop([axis.joint], 'mode change')
             axis.set_mode(mode, timeout)
         return await self._for_joints(f'set_mode {request.mode}', list(request.joints), change, response)
 
-    async def _for_joints(self, name: str, joints: list[str], action: Callable[[Axis], object],
+    async def _for_joints(self, name: str, joints: list[str], action: Callable[[JointDriver], object],
                           response: Any) -> Any:
         """Run an action on each joint in parallel; report every joint's outcome."""
         try:
             names = self._joints(joints)
-        except AxisError as exc:
+        except JointError as exc:
             response.success, response.message, response.failed = False, str(exc), list(joints)
             return response
 
         def one(joint: str) -> str | None:
             try:
                 action(self.master.axes[joint])
-            except (AxisError, SdoError) as exc:
+            except (JointError, SdoError, ValueError) as exc:
                 return str(exc)
             return None
 

@@ -14,16 +14,12 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
-from drive_bridge.cia402.axis import Axis, Setpoint
-from drive_bridge.cia402.modes import Mode, mode_name
-from drive_bridge.cia402.statemachine import State
 from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.joint import DriveState, JointDriver, Setpoint
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (JointSample, JointSpline, Trajectory, TrajectoryError,
                                                joint_splines, validate)
 
-STREAMABLE_MODES = {Mode.CYCLIC_SYNC_POSITION: 'cyclic position', Mode.CYCLIC_SYNC_VELOCITY: 'cyclic velocity',
-                    Mode.INTERPOLATED_POSITION: 'interpolated position'}
 STALL_PERIODS = 2  # a cycle later than this many periods delays the stream (see _tick)
 
 
@@ -55,7 +51,7 @@ class TrajectoryHandle:
 class TrajectoryExecutor:
     """Accepts trajectories for the bus's joints and feeds each axis one setpoint per cycle."""
 
-    def __init__(self, axes: Mapping[str, Axis], clock: Callable[[], float] = time.time,
+    def __init__(self, axes: Mapping[str, JointDriver], clock: Callable[[], float] = time.time,
                  cycle_period: float = 0.004, pvt_segment: float = 0.01, pvt_lookahead: float = 0.05) -> None:
         self.axes = dict(axes)
         self.clock = clock
@@ -80,12 +76,12 @@ class TrajectoryExecutor:
             if not snapshot.available:
                 raise TrajectoryError(f'{source}: joint {joint} is not available (node {snapshot.node_id} '
                                       f'NMT {snapshot.nmt_state})')
-            if snapshot.state is not State.OPERATION_ENABLED:
+            if snapshot.drive_state is not DriveState.ENABLED:
                 raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state.label}, not operation '
                                       'enabled; enable it first')
-            if axis.mode not in STREAMABLE_MODES:
-                raise TrajectoryError(f'{source}: joint {joint} is in mode {mode_name(axis.mode)}; '
-                                      f'trajectories need csp, csv or ip (set_mode)')
+            if axis.stream_strategy() is None:
+                raise TrajectoryError(f'{source}: joint {joint} is in mode {snapshot.mode_name}, which takes '
+                                      'no trajectory; set a streaming mode first (csp, csv or ip; set_mode)')
 
     def desired(self, joint: str, t: float) -> JointSample | None:
         """The desired state of a joint at time t, None when no trajectory ever ran."""
@@ -141,11 +137,9 @@ class TrajectoryExecutor:
         return handle
 
     def strategy(self, joint: str) -> str:
-        """How the joint is streamed in its current mode: cyclic, ip-linear or pvt."""
-        axis = self.axes[joint]
-        if axis.mode == Mode.INTERPOLATED_POSITION:
-            return 'pvt' if axis.config.ip_submode != 0 else 'ip-linear'
-        return 'cyclic'
+        """How the joint is streamed in its current mode (its drive family decides):
+        cyclic (position set-points), cyclic-velocity, ip-linear or pvt."""
+        return self.axes[joint].stream_strategy() or 'none'
 
     def _attach(self, joint: str, start: float) -> None:
         axis = self.axes[joint]
@@ -153,7 +147,8 @@ class TrajectoryExecutor:
             feeder = self._feeders.get(joint)
             if feeder is None:
                 feeder = PvtFeeder(lambda t: self.desired(joint, t), lambda: self._end_of(joint),
-                                   self.pvt_segment, self.pvt_lookahead, lead=self.cycle_period)
+                                   self.pvt_segment, self.pvt_lookahead, lead=self.cycle_period,
+                                   time_unit=axis.pvt_time_unit() or 0.001)
                 self._feeders[joint] = feeder
             feeder.start(start)
             axis.set_buffer_feeder(feeder)
@@ -192,7 +187,7 @@ class TrajectoryExecutor:
 
         def sample(t: float) -> Setpoint | None:
             t = self._tick(t)
-            if axis.mode == Mode.CYCLIC_SYNC_VELOCITY:
+            if axis.stream_strategy() == 'cyclic-velocity':
                 desired = self.desired(joint, t + period / 2)
                 return None if desired is None else Setpoint(velocity=desired.velocity)
             desired = self.desired(joint, t + period)
@@ -206,9 +201,7 @@ class TrajectoryExecutor:
         """A drive reporting its interpolation buffer ran dry or overflowed: abort the
         stream of its joints and hold them with HALT (safe: the drive decelerates and stays
         enabled; 'resume' clears it)."""
-        joints = [j for j, a in self.axes.items() if a.node.node_id == event.node_id
-                  and event.code in a.node.family.interpolation_fault_codes
-                  and self.strategy(j) == 'pvt']
+        joints = [j for j, a in self.axes.items() if a.is_stream_fault(event) and self.strategy(j) == 'pvt']
         if not joints:
             return
         self.stop(joints, f'{event}: stream aborted, axis held (HALT)', 'aborted')
@@ -258,7 +251,7 @@ class TrajectoryExecutor:
                 handle.state = 'active'
             for joint in handle.joints:
                 snapshot = self.axes[joint].snapshot()
-                if snapshot.state is not State.OPERATION_ENABLED or not snapshot.available:
+                if snapshot.drive_state is not DriveState.ENABLED or not snapshot.available:
                     emcy = f'; {snapshot.last_emcy}' if snapshot.last_emcy else ''
                     reason = f'joint {joint} left operation enabled ({snapshot.state.label}){emcy}'
                     self.stop(handle.joints, reason, 'aborted')

@@ -2,15 +2,16 @@
 keep the drive's interpolation buffer fed, without ever overflowing it.
 
 The drive interpolates a cubic (Hermite) between consecutive points, each reached
-``time`` ms after the previous one, so sampling the desired trajectory's position and
-velocity at whole-ms instants reproduces a cubic spline exactly. Rules kept here:
+``time`` units (the family's PVT time unit, e.g. 1 ms) after the previous one, so sampling
+the desired trajectory's position and velocity at whole-unit instants reproduces a cubic
+spline exactly. Rules kept here:
 
 - at most one point per cycle, and only while the drive reports at least two free
   places (0x60C4:2): one may be in flight, not yet counted by the drive;
 - the first point goes out at the trajectory's start (the drive runs a segment as soon as
   it has it), later ones up to ``lookahead`` ahead;
 - the motion ends with the final point (velocity 0) followed by a time-0 point, which
-  ends the motion (AKD: "write 0 to end the motion").
+  ends the motion.
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from drive_bridge.cia402.axis import Axis
+from drive_bridge.joint import JointDriver
 from drive_bridge.streaming.trajectory import JointSample
 
 DesiredFn = Callable[[float], JointSample | None]
@@ -38,17 +39,21 @@ class PvtStats:
 class PvtFeeder:
     """One joint's PVT stream; installed on its axis with Axis.set_buffer_feeder.
 
-    Point times are kept in whole ms from the motion's start (the drive's unit), so the
-    last segment ends exactly at the trajectory's end.
+    Point times are kept in whole time units from the motion's start (the drive's unit;
+    variables named ``*_ms`` count these units), so the last segment ends exactly at the
+    trajectory's end.
     """
 
     def __init__(self, desired: DesiredFn, end: EndFn, segment: float, lookahead: float,
-                 lead: float = 0.0) -> None:
-        if segment <= 0 or abs(segment * 1000 - round(segment * 1000)) > 1e-9:
-            raise ValueError(f'PVT segment time must be a positive whole number of ms, got {segment * 1000:g} ms')
+                 lead: float = 0.0, time_unit: float = 0.001) -> None:
+        per_unit = 1.0 / time_unit
+        if segment <= 0 or abs(segment * per_unit - round(segment * per_unit)) > 1e-9:
+            raise ValueError(f'PVT segment time must be a positive whole number of {time_unit * 1000:g} ms, '
+                             f'got {segment * 1000:g} ms')
         self.desired = desired
         self.end = end
-        self.segment_ms = round(segment * 1000)
+        self.per_unit = per_unit
+        self.segment_ms = round(segment * per_unit)
         self.lookahead = max(lookahead, segment)
         self.lead = lead  # a point written now reaches the drive at the next SYNC, this much later
         self.motion_start = 0.0
@@ -58,7 +63,7 @@ class PvtFeeder:
 
     @property
     def last_time(self) -> float:
-        return self.motion_start + self.offset_ms / 1000.0
+        return self.motion_start + self.offset_ms / self.per_unit
 
     @property
     def horizon(self) -> float | None:
@@ -71,7 +76,7 @@ class PvtFeeder:
             self.motion_start, self.offset_ms = t, 0
             self.ended = False
 
-    def on_cycle(self, now: float, axis: Axis) -> None:
+    def on_cycle(self, now: float, axis: JointDriver) -> None:
         if self.ended:
             return
         if self.offset_ms == 0:
@@ -86,28 +91,28 @@ class PvtFeeder:
             self.stats.waits_for_space += 1
             return
         end = self.end()
-        end_ms = None if end is None else max(0, math.ceil((end - self.motion_start) * 1000 - 1e-6))
+        end_ms = None if end is None else max(0, math.ceil((end - self.motion_start) * self.per_unit - 1e-6))
         if end_ms is not None and self.offset_ms >= end_ms:
             position, _velocity = self._point(axis, self.last_time)
-            axis.push_interpolation_point(position=position, time_ms=0, velocity=0)  # time 0: end of motion
+            axis.push_interpolation_point(position=position, time_units=0, velocity=0)  # time 0: end of motion
             self.ended = True
             self.stats.motions += 1
             return
         offset = self.offset_ms + self.segment_ms
         if end_ms is not None:
             offset = min(offset, end_ms)
-        t = self.motion_start + offset / 1000.0
+        t = self.motion_start + offset / self.per_unit
         position, velocity = self._point(axis, t)
         if t < now:
             self.stats.late_points += 1
         duration = offset - self.offset_ms
         if self.offset_ms == 0:  # the drive starts the first segment at this cycle's SYNC (now)
-            duration = max(1, round((t - now) * 1000))
-        axis.push_interpolation_point(position=position, time_ms=duration, velocity=velocity)
+            duration = max(1, round((t - now) * self.per_unit))
+        axis.push_interpolation_point(position=position, time_units=duration, velocity=velocity)
         self.stats.points += 1
         self.offset_ms = offset
 
-    def _point(self, axis: Axis, t: float) -> tuple[int, int]:
+    def _point(self, axis: JointDriver, t: float) -> tuple[int, int]:
         """(position counts, velocity counts/s) of the desired trajectory at t."""
         sample = self.desired(t)
         scaling = axis.config.scaling

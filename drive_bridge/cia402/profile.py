@@ -1,0 +1,80 @@
+"""What the CiA 402 driver asks its drive family: the objects an axis uses, the modes it
+accepts and how each is streamed, the PVT record layout, the fault reset.
+
+Every answer has a plain CiA 402 default (:class:`Cia402Defaults`); a family overrides only
+what its manual says differs. ``drive_bridge.families.DriveFamily`` implements this protocol.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia402.modes import Mode
+
+ObjectKey = tuple[int, int]
+
+
+@dataclass(frozen=True)
+class AxisObjects:
+    """The objects one axis slot uses for actual and target values (index, subindex)."""
+
+    position_actual: ObjectKey
+    velocity_actual: ObjectKey
+    effort_actual: ObjectKey
+    target_position: ObjectKey
+    target_velocity: ObjectKey
+    target_effort: ObjectKey
+
+    @classmethod
+    def cia402(cls, slot: int) -> AxisObjects:
+        """The standard objects (0x6064, 0x606C, 0x6077, 0x607A, 0x60FF, 0x6071) of a slot."""
+        at = (lambda index: (obj.for_axis(index, slot), 0))
+        return cls(at(obj.POSITION_ACTUAL), at(obj.VELOCITY_ACTUAL), at(obj.TORQUE_ACTUAL),
+                   at(obj.TARGET_POSITION), at(obj.TARGET_VELOCITY), at(obj.TARGET_TORQUE))
+
+
+@dataclass(frozen=True)
+class PvtRecord:
+    """Where one position-velocity-time point goes and in which units. Writes go in the
+    order velocity, time, position (the drive takes the point once all parts arrived)."""
+
+    position: ObjectKey
+    time: ObjectKey
+    velocity: ObjectKey
+    time_unit: float  # seconds per unit of the time entry (0.001: ms)
+
+
+@dataclass(frozen=True)
+class FaultModel:
+    """How the drive shows and clears a fault."""
+
+    fault_state: bool = True  # CiA 402 Fault state in the statusword
+    reset_bit: int = 7  # controlword bit whose rising edge resets the fault
+
+
+class Cia402Profile(Protocol):
+    """The family side of a CiA 402 axis (implemented by ``DriveFamily``)."""
+
+    name: str
+    accepted_modes: frozenset[int] | None  # None: trust 0x6502
+    pvt_submode: int | None
+    fault_model: FaultModel
+
+    def axis_objects(self, slot: int) -> AxisObjects: ...
+    def pvt_record(self, slot: int) -> PvtRecord | None: ...
+    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None: ...
+    def is_stream_fault(self, event: EmcyEvent) -> bool: ...
+
+
+def standard_strategy(mode: int, ip_submode: int, pvt_submode: int | None) -> str | None:
+    """CiA 402's own streaming per mode: cyclic position (CSP) or velocity (CSV) set-points,
+    IP linear or the family's PVT sub-mode; other modes take no trajectory."""
+    if mode == Mode.CYCLIC_SYNC_POSITION:
+        return 'cyclic'
+    if mode == Mode.CYCLIC_SYNC_VELOCITY:
+        return 'cyclic-velocity'
+    if mode == Mode.INTERPOLATED_POSITION:
+        return 'pvt' if pvt_submode is not None and ip_submode == pvt_submode and ip_submode != 0 else 'ip-linear'
+    return None

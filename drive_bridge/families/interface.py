@@ -1,0 +1,166 @@
+"""The drive family interface: the one boundary the core talks to.
+
+Like python-can's ``BusABC`` for CAN interfaces, :class:`DriveFamily` stands between the core
+and everything a drive line does differently. Every hook has a default that is plain CiA
+301/402; a family overrides only what its manual says differs. The master, the CiA 402 driver,
+streaming and the ROS layer ask the family and never test a vendor name.
+
+| question                         | hook                                                   |
+|----------------------------------|--------------------------------------------------------|
+| how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``                 |
+| extra boot steps                 | ``boot_steps_before``, ``boot_steps_after``            |
+| how is the node supervised?      | ``liveness``                                           |
+| how are PDOs configured?         | ``pdo_configuration``, ``pdo_comm_subindices``, ``select_pdo``, ``sent_on_write`` |
+| which objects carry the values?  | ``axis_objects``                                       |
+| what does an EMCY mean?          | ``decode_emcy``, ``is_stream_fault``                   |
+| which modes, streamed how?       | ``accepted_modes``, ``default_modes``, ``streaming_strategy``, ``pvt_record`` |
+| what is a fault, how is it reset?| ``fault_model``                                        |
+| which joint driver?              | ``create_joint_driver``                                |
+| vendor parameters?               | ``parameters``                                         |
+| defaults for the config          | ``eds_for``, ``default_pdos``, ``max_axes``            |
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from enum import Enum
+from pathlib import Path
+from typing import TYPE_CHECKING, ClassVar
+
+from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
+from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia402.axis import Axis
+from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
+from drive_bridge.families.ports import BootStep, NodePort
+from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
+
+if TYPE_CHECKING:
+    from drive_bridge.families.parameters import ParameterAccess, ParameterPort
+
+DATA_DIR = Path(__file__).resolve().parent / 'data'
+
+
+class BootDetection(str, Enum):
+    """How a node announces that it (re)booted."""
+
+    BOOTUP_FRAME = 'bootup frame'  # CiA 301: 0x700 + id with one zero byte
+    EMCY = 'emcy'  # an EMCY the family recognises (``is_bootup_emcy``)
+    PROBE = 'probe'  # no announcement: an SDO read of 0x1000 answers once it is up
+
+
+class Liveness(str, Enum):
+    """How the master watches a node; never both on one node."""
+
+    HEARTBEAT = 'heartbeat'
+    GUARDING = 'node guarding'
+    NONE = 'none'
+
+
+class PdoConfiguration(str, Enum):
+    """How the master sets a node's PDOs at boot."""
+
+    FREE_MAPPING = 'free mapping'  # write 0x1400../0x1600.. / 0x1800../0x1A00.. (CiA 301)
+    SELECT_BY_NUMBER = 'select by number'  # the family's ``select_pdo`` picks a predefined PDO
+
+
+class DriveFamily:
+    """What the bridge knows about one line of drives beyond their EDS.
+
+    Subclasses set the class attributes and override the hooks that differ; registered with
+    :func:`~drive_bridge.families.register_family` or the ``drive_bridge.families`` entry point.
+    """
+
+    name: ClassVar[str] = ''
+    description: ClassVar[str] = ''
+    default_eds: ClassVar[Path | None] = None  # shipped EDS used when the config names none
+    has_cia402: ClassVar[bool] = True  # axes are CiA 402 axes (else the family brings its driver)
+    max_axes: ClassVar[int] = 1
+    emcy_texts: ClassVar[Mapping[int, str]] = {}  # family-specific EMCY code texts
+    pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of the family's PVT interpolation, if any
+    default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
+    interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
+    accepted_modes: ClassVar[frozenset[int] | None] = None  # the modes it takes, when 0x6502 says otherwise
+    # default of the axis keys mode / position_mode / velocity_mode / effort_mode, where they
+    # differ from csp / csp / csv / cst
+    default_modes: ClassVar[Mapping[str, str]] = {}
+    boot_detection: ClassVar[BootDetection] = BootDetection.BOOTUP_FRAME
+    pdo_configuration: ClassVar[PdoConfiguration] = PdoConfiguration.FREE_MAPPING
+    # communication-parameter sub-indices the node has (CiA 301: 1 COB-ID, 2 type, 3 inhibit,
+    # 5 event timer, 6 SYNC start); the master writes only these
+    pdo_comm_subindices: ClassVar[frozenset[int]] = frozenset({1, 2, 3, 5, 6})
+    fault_model: ClassVar[FaultModel] = FaultModel()
+
+    # -- configuration defaults ------------------------------------------------------------
+    def eds_for(self, axis_count: int) -> Path | None:
+        """The shipped EDS for a node with ``axis_count`` axes (None: the config must name one)."""
+        return self.default_eds
+
+    def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
+                     synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        """(RPDOs, TPDOs) used when the config gives no mapping."""
+        return (), ()
+
+    # -- boot --------------------------------------------------------------------------------
+    def is_bootup_emcy(self, data: bytes) -> bool:
+        """With ``BootDetection.EMCY``: this EMCY payload is the node's boot-up announcement."""
+        return False
+
+    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
+        """Steps after boot-up and identity, before the configured boot SDOs."""
+        return ()
+
+    def boot_steps_after(self, node: NodePort) -> Sequence[BootStep]:
+        """Steps after PDOs and supervision are configured, before NMT start."""
+        return ()
+
+    def liveness(self, config: NodeConfig) -> Liveness:
+        """How this node is supervised: heartbeat when it produces one, else node guarding
+        when a guard time is configured, else not at all."""
+        if config.heartbeat_producer_ms:
+            return Liveness.HEARTBEAT
+        if getattr(config, 'guard_time_ms', 0):
+            return Liveness.GUARDING
+        return Liveness.NONE
+
+    # -- PDOs --------------------------------------------------------------------------------
+    def select_pdo(self, kind: str, config: PdoConfig) -> Sequence[tuple[int, int, int]]:
+        """With ``PdoConfiguration.SELECT_BY_NUMBER``: the SDO writes (index, subindex, value)
+        choosing the predefined PDO that ``config`` describes (kind 'RPDO' or 'TPDO')."""
+        raise NotImplementedError(f'family {self.name!r} selects no predefined PDOs')
+
+    def sent_on_write(self, index: int, subindex: int) -> bool:
+        """An RPDO carrying this object goes out only in a cycle that wrote it, not every
+        cycle: writing it pushes a point into the drive's buffer (CiA 402: 0x60C1 of any axis)."""
+        return index >= 0x6000 and (index - obj.INTERPOLATION_DATA_RECORD) % obj.AXIS_OFFSET == 0
+
+    # -- axes ----------------------------------------------------------------------------------
+    def axis_objects(self, slot: int) -> AxisObjects:
+        """Objects carrying an axis' actual and target values."""
+        return AxisObjects.cia402(slot)
+
+    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None:
+        """How trajectories are streamed in ``mode``: 'cyclic', 'ip-linear', 'pvt' (None: not)."""
+        return standard_strategy(mode, ip_submode, self.pvt_submode)
+
+    def pvt_record(self, slot: int) -> PvtRecord | None:
+        """Where PVT points go (None: the family has no PVT)."""
+        return None
+
+    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
+                            cycle_period: float) -> JointDriver:
+        """The driver of one axis: the CiA 402 axis unless the family brings its own."""
+        return Axis(node, axis, timeouts, cycle_period, profile=self)
+
+    # -- EMCY ----------------------------------------------------------------------------------
+    def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
+        """Code, register and manufacturer bytes -> text, axis slot, severity, reset."""
+        return decode_emcy(node_id, node_name, data, timestamp, self.emcy_texts)
+
+    def is_stream_fault(self, event: EmcyEvent) -> bool:
+        """The EMCY reports an interpolation buffer underflow or overflow (aborts a stream)."""
+        return event.code in self.interpolation_fault_codes
+
+    # -- vendor parameters ---------------------------------------------------------------------
+    def parameters(self, port: ParameterPort) -> ParameterAccess | None:
+        """Access to the drive's own parameters by their vendor names (None: not offered)."""
+        return None

@@ -1,0 +1,76 @@
+"""Family name -> :class:`DriveFamily`: the built-in families plus any installed package's
+entry points in the group ``drive_bridge.families`` (as python-can finds its interfaces), so
+an integrator adds a family without editing this package::
+
+    # pyproject.toml of the integrator's package
+    [project.entry-points."drive_bridge.families"]
+    my_drive = "my_package.family:MyDrive"
+"""
+from __future__ import annotations
+
+import logging
+from importlib.metadata import entry_points
+
+from drive_bridge.errors import DriveBridgeError
+from drive_bridge.families.interface import DriveFamily
+
+ENTRY_POINT_GROUP = 'drive_bridge.families'
+log = logging.getLogger('drive_bridge.families')
+
+_REGISTRY: dict[str, type[DriveFamily]] = {}
+_entry_points_loaded = False
+
+
+class FamilyError(DriveBridgeError, KeyError):
+    """An unknown family name, or an entry point that does not load a DriveFamily."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ''
+
+
+def register_family(cls: type[DriveFamily]) -> type[DriveFamily]:
+    """Class decorator adding a family to the registry under ``cls.name``."""
+    if not (isinstance(cls, type) and issubclass(cls, DriveFamily)):
+        raise FamilyError(f'{cls!r} is not a DriveFamily subclass')
+    if not cls.name:
+        raise FamilyError(f'{cls.__name__} has no name')
+    _REGISTRY[cls.name] = cls
+    return cls
+
+
+def unregister_family(name: str) -> None:
+    """Remove a family (tests that register one of their own clean up with this)."""
+    _REGISTRY.pop(name, None)
+
+
+def _load_entry_points() -> None:
+    global _entry_points_loaded
+    if _entry_points_loaded:
+        return
+    _entry_points_loaded = True
+    for point in entry_points(group=ENTRY_POINT_GROUP):
+        if point.name in _REGISTRY:
+            continue
+        try:
+            cls = point.load()
+            register_family(cls)
+        except Exception as exc:  # one broken plugin must not hide the other families
+            log.error('drive family entry point %r (%s) failed to load: %s', point.name, point.value, exc)
+            continue
+        if cls.name != point.name:
+            _REGISTRY[point.name] = cls
+
+
+def get_family(name: str) -> DriveFamily:
+    """The family registered as ``name``; FamilyError lists the known ones."""
+    if name not in _REGISTRY:
+        _load_entry_points()
+    try:
+        return _REGISTRY[name]()
+    except KeyError:
+        raise FamilyError(f'unknown drive family {name!r}; known: {", ".join(family_names())}') from None
+
+
+def family_names() -> list[str]:
+    _load_entry_points()
+    return sorted(_REGISTRY)
