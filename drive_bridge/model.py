@@ -172,6 +172,8 @@ class NodeConfig:
     tpdo: tuple[PdoConfig, ...] = ()
     heartbeat_producer_ms: int = 100  # written to the node's 0x1017
     heartbeat_consumer: bool = True  # node monitors the master's heartbeat (0x1016)
+    guard_time_ms: int = 0  # node guarding (0x100C), instead of a heartbeat; 0 = not guarded
+    life_time_factor: int = 0  # 0x100D; node life time = guard time * factor (0 when not guarded)
     reset_communication: bool = True  # NMT reset communication before configuring
     timeouts: Timeouts = field(default_factory=Timeouts)
     axes: tuple[AxisConfig, ...] = ()
@@ -179,6 +181,11 @@ class NodeConfig:
 
     def __hash__(self) -> int:  # the OD is not hashable; a node is identified by name and id
         return hash((self.name, self.node_id))
+
+    @property
+    def guarding(self) -> bool:
+        """The master guards this node (CiA 301 node guarding) instead of consuming a heartbeat."""
+        return self.guard_time_ms > 0
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from configtools import load_yaml, problems
 
+from configtools import load_yaml, problems
 from drive_bridge.config import ConfigError, Issue, load_bus_config, parse_bus_config
 
 SCALED = '{counts_per_revolution: 4096, rated_torque: 1.0}'

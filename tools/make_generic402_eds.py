@@ -15,8 +15,8 @@ from canopen.objectdictionary import datatypes as dt
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
-from drive_bridge.model import AxisConfig
 from drive_bridge.families import get_family
+from drive_bridge.model import AxisConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from edswriter import container, var, write_eds  # noqa: E402
@@ -45,6 +45,8 @@ def communication_objects(od: canopen.ObjectDictionary, axes: int) -> None:
                       f'drive_bridge simulated CiA 402 drive ({axes} axis)'))
     od.add_object(var('Manufacturer hardware version', 0x1009, 0, dt.VISIBLE_STRING, 'const', 'sim'))
     od.add_object(var('Manufacturer software version', 0x100A, 0, dt.VISIBLE_STRING, 'const', '1.0'))
+    od.add_object(var('Guard time', 0x100C, 0, u16, 'rw', 0))  # node guarding (CiA 301 §7.5.2.8)
+    od.add_object(var('Life time factor', 0x100D, 0, u8, 'rw', 0))
     od.add_object(var('COB-ID EMCY', 0x1014, 0, u32, 'rw', 0x80, relative=True))
     od.add_object(var('Inhibit time EMCY', 0x1015, 0, u16, 'rw', 0))
     od.add_object(container('Consumer heartbeat time', 0x1016,

@@ -86,6 +86,7 @@ class Axis:
         self._target_state: State | None = None
         self._halt = False
         self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
+        self._disable_on_return = False  # after the node was configured again (on_node_reset)
         self._mode = config.mode
         self._pp_phase = PP_IDLE  # profile position set-point handshake
         self._pp_done = 0.0  # statusword stamp when the last handshake completed
@@ -168,7 +169,27 @@ class Axis:
             elif self._ip_point is not None:  # every cycle, even unchanged: one write is one point
                 self.node.write(*self.key['ip_position'], self._ip_point)
 
+    def on_node_reset(self) -> None:
+        """The node is configured again (it rebooted, or answers again after it was lost):
+        every intent is dropped, and a drive still in operation enabled is disabled, so it is
+        never re-enabled by itself."""
+        with self._cond:
+            self._target_state = None
+            self._disable_on_return = True
+            self._fault_reset_phase = 0
+            self._targets.clear()
+            self._source = None
+            self._feeder = None
+            self._ip_point = None
+            self._pp_phase = PP_IDLE
+            self._message = 'node configured again: enable the axis to move it'
+            self._cond.notify_all()
+
     def _device_command(self, state: State) -> int:
+        if self._disable_on_return:
+            if state is State.OPERATION_ENABLED and self._target_state is None:
+                return sm.CMD_DISABLE_OPERATION
+            self._disable_on_return = False
         if self._fault_reset_phase == 1:
             self._fault_reset_phase = 2
             return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)  # bit 7 low: the edge comes next

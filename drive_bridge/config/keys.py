@@ -33,7 +33,8 @@ CHANNEL_FORM = ('num_channels', 'channel_names', 'channels')
 # keys of the ros2_canopen way to declare axes (instead of an `axes` list)
 ROS_AXIS_FORM = CHANNEL_FORM + LINEAR_SCALING + MODE_KEYS
 NODE = ('node_id', 'family', 'driver', 'dcf', 'dcf_path', *IDENTITY, 'sdo', 'rpdo', 'tpdo',
-        'heartbeat_producer', 'heartbeat_consumer', 'reset_communication', *TIMEOUTS_MS,
+        'heartbeat_producer', 'heartbeat_consumer', 'guard_time_ms', 'life_time_factor', 'reset_communication',
+        *TIMEOUTS_MS,
         'homing_timeout_seconds', *RETRIES, 'axes', *ROS_AXIS_FORM)
 
 _ROS_NODE = 'ros2_canopen driver setting with no meaning in drive_bridge'

@@ -17,6 +17,7 @@ from drive_bridge.config import keys
 from drive_bridge.config.axes import AxisDraft, check_axis_objects, parse_axes
 from drive_bridge.config.eds import EdsError, read_object_dictionary
 from drive_bridge.config.errors import Issues, Loc
+from drive_bridge.config.guarding import Supervision, check_guarding_objects, parse_supervision
 from drive_bridge.model import Identity, MasterConfig, NodeConfig, Timeouts
 from drive_bridge.config.pdo import PdoDraft, family_drafts, parse_pdo_table, resolve_pdo
 from drive_bridge.config.reader import Section, describe, suggestion
@@ -136,16 +137,15 @@ def _timeouts(node: Section) -> Timeouts:
                     command_timeout=seconds('command_timeout_ms', base.command_timeout))
 
 
-def _heartbeats(ctx: NodeContext, node: Section) -> tuple[int, bool]:
-    producer = node.get_int('heartbeat_producer', 100, lo=0, hi=0xFFFF) or 0
+def _heartbeats(ctx: NodeContext, node: Section, supervision: Supervision) -> bool:
     consumer = node.get_bool('heartbeat_consumer', True)
-    if producer == 0 and ctx.master.heartbeat_consumer:
+    if supervision.heartbeat_producer_ms == 0 and not supervision.guarded and ctx.master.heartbeat_consumer:
         ctx.issues.warn(node.loc('heartbeat_producer'), 'the node sends no heartbeat, so the master cannot '
                                                         'monitor it (master.heartbeat_consumer is true)')
     if consumer and ctx.master.heartbeat_producer_ms == 0:
         ctx.issues.warn(node.where, 'heartbeat_consumer is true but the master sends no heartbeat '
                                     '(master.heartbeat_producer is 0); the node will not monitor it')
-    return producer, consumer
+    return consumer
 
 
 def _axes_loc(node: Section) -> Loc:
@@ -210,7 +210,8 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     sdo_items = node.get_list('sdo', 'a list of {index, sub_index, value}') or []
     boot_sdo = parse_boot_sdo(issues, sdo_items, od, eds_name, ctx.file)
     identity = Identity(**{key: node.get_int(key, lo=0, hi=0xFFFFFFFF, allow_str=True) for key in keys.IDENTITY})
-    producer, consumer = _heartbeats(ctx, node)
+    supervision = parse_supervision(node, name)
+    consumer = _heartbeats(ctx, node, supervision)
     reset = node.get_bool('reset_communication', True)
     timeouts = _timeouts(node)
     if node_id is not None:
@@ -223,10 +224,13 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
         axes_fit = all([check_axis_objects(issues, od, eds_name, axis) for axis in draft.axes])
     draft.pdos = [resolve_pdo(issues, od, eds_name, p) if axes_fit or not p.from_family else p
                   for p in draft.pdos]
+    check_guarding_objects(node, supervision, od, eds_name, sdo_items)
     draft.config = NodeConfig(
         name=name, node_id=node_id, family=family.name, od=od, eds_path=eds_path, identity=identity,
         boot_sdo=boot_sdo, rpdo=tuple(p.config for p in draft.pdos if p.kind == 'rpdo'),
-        tpdo=tuple(p.config for p in draft.pdos if p.kind == 'tpdo'), heartbeat_producer_ms=producer,
-        heartbeat_consumer=consumer, reset_communication=reset, timeouts=timeouts,
+        tpdo=tuple(p.config for p in draft.pdos if p.kind == 'tpdo'),
+        heartbeat_producer_ms=supervision.heartbeat_producer_ms, heartbeat_consumer=consumer,
+        guard_time_ms=supervision.guard_time_ms, life_time_factor=supervision.life_time_factor,
+        reset_communication=reset, timeouts=timeouts,
         axes=tuple(d.axis for d in draft.axes), where=f'{ctx.file}: {node.where.path}')
     return draft

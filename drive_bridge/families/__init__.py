@@ -4,10 +4,10 @@ cannot say; the one boundary the core talks to. Look families up by name with
 entry point group."""
 from drive_bridge.families.interface import (DATA_DIR, BootDetection, DriveFamily, Liveness,
                                              PdoConfiguration)
-from drive_bridge.families.registry import (ENTRY_POINT_GROUP, FamilyError, family_names, get_family,
-                                            register_family, unregister_family)
+from drive_bridge.families.registry import (ENTRY_POINT_GROUP, FamilyError, discover_families, family_names,
+                                            get_family, register_family, unregister_family)
 from drive_bridge.families import generic301 as _generic301, generic402 as _generic402  # noqa: F401,E402  (register themselves)
 from drive_bridge.families import akd as _akd  # noqa: F401,E402  (registers itself)
 
 __all__ = ['DATA_DIR', 'ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'Liveness',
-           'PdoConfiguration', 'family_names', 'get_family', 'register_family', 'unregister_family']
+           'PdoConfiguration', 'discover_families', 'family_names', 'get_family', 'register_family', 'unregister_family']

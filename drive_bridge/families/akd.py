@@ -39,11 +39,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import PvtRecord
 from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 from drive_bridge.cia301.cob import predefined_cob_id
+from drive_bridge.families.akd_parameters import AkdParameters
 from drive_bridge.families.interface import DATA_DIR, DriveFamily
+from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
 
 SYNC_EVERY_CYCLE = 1
@@ -251,11 +254,24 @@ class Akd(DriveFamily):
     accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
                                 Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION})
 
+    def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
+        """The manual's table; its nNNN rows and the general warning are warnings (the drive
+        keeps running), its FNNN rows faults."""
+        event = super().decode_emcy(node_id, node_name, data, timestamp)
+        text = AKD_EMCY_TEXTS.get(event.code, '')
+        if event.code == 0x1080 or (text[:1] == 'n' and text[1:4].isdigit()):
+            return event.with_meaning(severity=Severity.WARNING)
+        return event
+
     def pvt_record(self, slot: int) -> PvtRecord | None:
         """The AKD's PVT point: 0x60C1:1 position (counts), :2 time (ms), :3 velocity
         (counts/s); the drive takes it once all three arrived (akd.md §7.2.2.2)."""
         record = obj.for_axis(obj.INTERPOLATION_DATA_RECORD, slot)
         return PvtRecord(position=(record, 1), time=(record, 2), velocity=(record, 3), time_unit=0.001)
+
+    def parameters(self, port: ParameterPort) -> AkdParameters:
+        """ASCII parameters (DRV.ACC, FBUS.PARAM04, ...) over the ASCII channel 0x2026."""
+        return AkdParameters(port)
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:

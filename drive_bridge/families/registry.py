@@ -43,6 +43,14 @@ def unregister_family(name: str) -> None:
     _REGISTRY.pop(name, None)
 
 
+def discover_families() -> list[str]:
+    """Look for ``drive_bridge.families`` entry points again (a package installed since
+    the first look); returns the known family names."""
+    global _entry_points_loaded
+    _entry_points_loaded = False
+    return family_names()
+
+
 def _load_entry_points() -> None:
     global _entry_points_loaded
     if _entry_points_loaded:

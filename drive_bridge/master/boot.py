@@ -16,6 +16,7 @@ from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families import BootDetection, Liveness, PdoConfiguration
 from drive_bridge.families.ports import BootStep
+from drive_bridge.master.guarding import configure_guarding as write_guarding
 from drive_bridge.master.node import NodeRuntime
 from drive_bridge.master.pdo import od_variable
 from drive_bridge.master.sdo import SdoError
@@ -78,6 +79,7 @@ def wait_for_bootup(node: NodeRuntime) -> None:
     announcement, a heartbeat, or (no heartbeat) an answer to an SDO probe."""
     timeout = node.config.timeouts.boot
     detection = node.family.boot_detection
+    node.restart_guarding()
     if node.config.reset_communication:
         node.bootup_seen.clear()
         node.remote.nmt.send_command(NMT_RESET_COMMUNICATION)
@@ -253,9 +255,9 @@ def configure_guarding(node: NodeRuntime) -> None:
     set), then guard time 0x100C and life time factor 0x100D."""
     if node.liveness is not Liveness.GUARDING:
         return
-    from drive_bridge.master.guarding import configure_guarding as write_guarding
     _sdo_step(node, 'node guarding', lambda: write_guarding(
         node.sdo_write, node.has_object, node.config.guard_time_ms, node.config.life_time_factor))
+    node.guard_active = True  # the supervisor polls it from now on
 
 
 def boot_node(node: NodeRuntime, master: MasterConfig, progress: Callable[[str], None]) -> None:

@@ -11,6 +11,9 @@ class EventKind(str, Enum):
     BOOT_FAILED = 'boot_failed'
     HEARTBEAT_LOST = 'heartbeat_lost'
     HEARTBEAT_BACK = 'heartbeat_back'
+    GUARDING_LOST = 'guarding_lost'
+    GUARDING_ERROR = 'guarding_error'
+    GUARDING_BACK = 'guarding_back'
     UNEXPECTED_BOOT = 'unexpected_boot'
     ERROR = 'error'
 

@@ -19,11 +19,13 @@ import canopen
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.families.parameters import ParameterAccess, ParameterError
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
 from drive_bridge.master.boot import BootError, boot_node
 from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
 from drive_bridge.master.events import BusEvent, EventKind, Level
+from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
@@ -66,6 +68,7 @@ class Master:
         self._by_id: dict[int, NodeRuntime] = {}
         self._adhoc: dict[int, SdoChannel] = {}
         self._adhoc_lock = threading.Lock()
+        self._parameters: dict[int, ParameterAccess] = {}
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
         self._cycle_listeners: list[Callable[[int], None]] = []
@@ -124,6 +127,7 @@ class Master:
                                lambda text: self._emit(EventKind.ERROR, Level.WARN, text))
             self.nodes[node.name] = node
             self._by_id[node.node_id] = node
+            node.attach_guard()
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
@@ -215,6 +219,7 @@ class Master:
             now = time.monotonic()
             for node in self.nodes.values():
                 self._check_heartbeat(node, now)
+                self._check_guarding(node, now)
                 if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
                     self._start_boot(node)
 
@@ -222,6 +227,7 @@ class Master:
         """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots."""
         if node.bootup_seen.is_set() and node.boot_state in (BootState.OPERATIONAL, BootState.LOST):
             node.bootup_seen.clear()
+            self._reset_axes(node)
             node.set_boot_state(BootState.WAITING)
             node.next_boot_time = 0.0
             self._emit(EventKind.UNEXPECTED_BOOT, Level.WARN,
@@ -243,8 +249,37 @@ class Master:
                 self._emit(EventKind.HEARTBEAT_BACK, Level.WARN,
                            f'node {node.node_id} ({node.name}): heartbeat back, node operational', node)
             else:  # alive but not started (e.g. reset to pre-operational): configure again
+                self._reset_axes(node)
                 node.set_boot_state(BootState.WAITING)
                 node.next_boot_time = 0.0
+
+    def _check_guarding(self, node: NodeRuntime, now: float) -> None:
+        """Poll node guarding (sends the RTR when due) and act on what it reports: lost
+        -> the node's axes are unavailable; back -> configured again, never re-enabled."""
+        guard = node.guard
+        if guard is None or not node.guard_active:
+            return
+        for event in guard.poll(now):
+            if event.kind is GuardEventKind.LOST and node.boot_state is BootState.OPERATIONAL:
+                node.set_boot_state(BootState.LOST, f'node guarding lost: {event.message}')
+                self._emit(EventKind.GUARDING_LOST, Level.ERROR,
+                           f'{event.message} ({node.name}); its axes are unavailable', node)
+            elif event.kind is GuardEventKind.TOGGLE_ERROR:
+                self._emit(EventKind.GUARDING_ERROR, Level.WARN, f'{event.message} ({node.name})', node)
+            elif event.kind is GuardEventKind.BACK and node.boot_state is BootState.LOST:
+                self._emit(EventKind.GUARDING_BACK, Level.WARN,
+                           f'{event.message} ({node.name}): answers again; configuring it again '
+                           '(its axes stay disabled until enabled)', node)
+                self._reset_axes(node)
+                node.set_boot_state(BootState.WAITING)
+                node.next_boot_time = 0.0
+        state, age = guard.nmt_state, guard.age(now)
+        if state is not None and age is not None and not guard.lost:
+            node.on_guard_reply(state, age)
+
+    def _reset_axes(self, node: NodeRuntime) -> None:
+        for axis_cfg in node.config.axes:
+            self.axes[axis_cfg.joint].on_node_reset()
 
     def _start_boot(self, node: NodeRuntime) -> None:
         node.set_boot_state(BootState.BOOTING)
@@ -330,6 +365,25 @@ class Master:
         if not 0 <= node_id <= 127:
             raise ValueError(f'NMT node id must be 0 (all) or 1..127, got {node_id}')
         self.network.send_message(0x000, bytes([command, node_id]))
+
+    def parameter_access(self, node_id: int) -> ParameterAccess:
+        """The family's access to the vendor parameters of a configured node (one per node,
+        kept); ParameterError names an unknown node or a family that offers none."""
+        node = self._by_id.get(node_id)
+        if node is None:
+            known = ', '.join(f'{n.node_id} ({n.name})' for n in self.nodes.values())
+            raise ParameterError(f'node {node_id} is not in the bus configuration (configured: {known})',
+                                 node_id=node_id)
+        with self._adhoc_lock:
+            access = self._parameters.get(node_id)
+            if access is None:
+                access = node.family.parameters(node)
+                if access is None:
+                    raise ParameterError(f'node {node_id} ({node.name}): drive family {node.family.name!r} '
+                                         'offers no access to vendor parameters; use sdo_read/sdo_write',
+                                         node_id=node_id)
+                self._parameters[node_id] = access
+        return access
 
     def snapshot(self) -> BusSnapshot:
         return BusSnapshot(

@@ -17,6 +17,7 @@ from canopen.objectdictionary import datatypes as dt
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.families import BootDetection, Liveness, get_family
+from drive_bridge.master.guarding import NodeGuard
 from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
 from drive_bridge.master.sdo_worker import SdoWorker
@@ -78,6 +79,9 @@ class NodeRuntime:
             network.subscribe(cob_id, self.process.on_tpdo)
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
+        # node guarding: polled by the supervisor once the boot configured it
+        self.guard = NodeGuard.from_config(config) if self.liveness is Liveness.GUARDING else None
+        self.guard_active = False
         self.heartbeat_timeout = (config.heartbeat_producer_ms * master.heartbeat_multiplier / 1000.0
                                   if self.liveness is Liveness.HEARTBEAT and master.heartbeat_consumer else 0.0)
         self.boot_state = BootState.WAITING
@@ -116,11 +120,20 @@ class NodeRuntime:
             self.nmt_state = NmtState.PRE_OPERATIONAL
         self._notify()
 
-    def on_alive(self, state: NmtState) -> None:
-        """A liveness sign other than a heartbeat (a node guarding reply)."""
-        self.last_heartbeat = time.monotonic()
-        self.nmt_state = state
-        self._notify()
+    def attach_guard(self) -> None:
+        if self.guard is not None:
+            self.guard.attach(self.network)
+
+    def restart_guarding(self) -> None:
+        """Before a (re)boot: stop polling; the next reply's toggle is expected 0."""
+        self.guard_active = False
+        if self.guard is not None:
+            self.guard.reset()
+
+    def on_guard_reply(self, state: int, age: float) -> None:
+        """The latest node guarding reply (supervisor thread)."""
+        self.last_heartbeat = time.monotonic() - age
+        self.nmt_state = NmtState.from_code(state)
 
     def _on_emcy_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
         payload = bytes(data)
@@ -204,3 +217,5 @@ class NodeRuntime:
 
     def close(self) -> None:
         self.worker.stop()
+        if self.guard is not None:
+            self.guard.detach()

@@ -95,6 +95,8 @@ def emcy_msg(event: EmcyEvent, joint: str) -> Emcy:
     msg.manufacturer_data = list(event.manufacturer)
     msg.text = event.text
     msg.register_text = event.register_text
+    msg.severity = event.severity.value
+    msg.reset = event.is_reset
     return msg
 
 

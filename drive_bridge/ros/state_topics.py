@@ -16,7 +16,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import axis_state_msg, emcy_msg
 from drive_bridge.ros.diagnostics import diagnostics
@@ -124,8 +124,11 @@ class StateTopics:
         joint = joints[event.slot] if event.slot is not None and event.slot < len(joints) else \
             (joints[0] if len(joints) == 1 else '')
         self.emcy.publish(emcy_msg(event, joint))
-        if event.is_reset:  # one call site per severity (rclpy)
+        # one call site per severity (rclpy), as the drive family reads the EMCY
+        if event.is_reset or event.severity is Severity.INFO:
             self.node.get_logger().info(str(event))
+        elif event.severity is Severity.WARNING:
+            self.node.get_logger().warning(str(event))
         else:
             self.node.get_logger().error(str(event))
 
