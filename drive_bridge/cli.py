@@ -26,7 +26,7 @@ def bridge_main(argv: list[str] | None = None, managed: bool = False) -> None:
         ros_args = [*DEMO_ROS_ARGS, *ros_args]
         # The demo must keep DDS on loopback unless the user chose otherwise.
         os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    from drive_bridge.ros.node import run  # imports rclpy: only after the environment is set
+    from drive_bridge.ros.main import run  # imports rclpy: only after the environment is set
     raise SystemExit(run(config, ['bridge', *ros_args], managed=managed))
 
 

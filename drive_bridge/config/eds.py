@@ -16,12 +16,13 @@ import canopen
 from canopen import ObjectDictionary
 
 from drive_bridge.config.errors import ConfigError
+from drive_bridge.errors import DriveBridgeError
 
 SUFFIXES = ('.eds', '.dcf')
 _UTF8_BOM = b'\xef\xbb\xbf'
 
 
-class EdsError(Exception):
+class EdsError(DriveBridgeError):
     """Why an EDS/DCF cannot be used (the caller locates it)."""
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import NamedTuple
+from drive_bridge.errors import DriveBridgeError
 
 
 class Issue(NamedTuple):
@@ -21,7 +22,7 @@ class Issue(NamedTuple):
         return f'{self.file}: {self.path}: {self.message}' if self.path else f'{self.file}: {self.message}'
 
 
-class ConfigError(ValueError):
+class ConfigError(DriveBridgeError, ValueError):
     """A configuration (or EDS) that cannot be used; ``issues`` lists every problem found."""
 
     def __init__(self, issues: Iterable[Issue]) -> None:

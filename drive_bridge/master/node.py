@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from enum import Enum
 
 import canopen
-
 from canopen.objectdictionary import datatypes as dt
 
 from drive_bridge.cia301.emcy import EmcyEvent

@@ -16,6 +16,8 @@ import canopen
 from canopen.objectdictionary import ODVariable, datatypes as dt
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
+from drive_bridge.errors import DriveBridgeError
+
 SdoPlain = Union[bool, int, float, str, bytes]
 
 # CiA 301 basic data types the bridge reads and writes (codes as in SdoValue.msg)
@@ -58,7 +60,7 @@ class ObjectAddress:
         return f'node {self.node_id} object 0x{self.index:04X}:{self.subindex:02X}'
 
 
-class SdoError(Exception):
+class SdoError(DriveBridgeError):
     """An SDO that failed: abort by the node (``abort_code`` set), timeout, or bad value."""
 
     def __init__(self, where: ObjectAddress, message: str, abort_code: int = 0) -> None:

@@ -21,11 +21,12 @@ from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.parameters import BridgeParameters
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import TrajectoryError
+from drive_bridge.errors import DriveBridgeError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
 
 
-class CommandRefused(ValueError):
+class CommandRefused(DriveBridgeError, ValueError):
     pass
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
-from drive_bridge.ros.node import Bridge, StartupError, configuration
+from drive_bridge.ros.bridge import Bridge, StartupError, configuration
 from drive_bridge.ros.parameters import ParameterError, declare
 
 

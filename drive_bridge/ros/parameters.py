@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from drive_bridge.errors import DriveBridgeError
 
 COMMAND_INTERFACES = ('position', 'velocity', 'effort')
 RELIABILITIES = ('reliable', 'best_effort')
@@ -53,7 +54,7 @@ DESCRIPTIONS = {
 }
 
 
-class ParameterError(ValueError):
+class ParameterError(DriveBridgeError, ValueError):
     """One or more parameters are invalid; the message lists each."""
 
 

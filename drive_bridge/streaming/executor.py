@@ -17,8 +17,14 @@ from dataclasses import dataclass, field
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.joint import DriveState, JointDriver, Setpoint
 from drive_bridge.streaming.pvt import PvtFeeder
-from drive_bridge.streaming.trajectory import (JointSample, JointSpline, Trajectory, TrajectoryError,
-                                               joint_splines, validate)
+from drive_bridge.streaming.trajectory import (
+    JointSample,
+    JointSpline,
+    Trajectory,
+    TrajectoryError,
+    joint_splines,
+    validate,
+)
 
 STALL_PERIODS = 2  # a cycle later than this many periods delays the stream (see _tick)
 

@@ -12,6 +12,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from drive_bridge.errors import DriveBridgeError
 from drive_bridge.model import AxisLimits
 
 
@@ -41,7 +42,7 @@ class JointSample:
     acceleration: float
 
 
-class TrajectoryError(ValueError):
+class TrajectoryError(DriveBridgeError, ValueError):
     """A trajectory refused as a whole; the message says why."""
 
 

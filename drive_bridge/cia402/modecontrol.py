@@ -1,0 +1,377 @@
+"""Per-mode control of a CiA 402 axis: what each mode of operation adds to the controlword
+and writes as targets, decided each cycle, and the mode intents (set_mode, command, home, the
+interpolation buffer). A mixin of :class:`~drive_bridge.cia402.axis.Axis`, which drives the
+state machine and owns the state these methods share.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+
+from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia402 import objects as obj, statemachine as sm
+from drive_bridge.cia402.modes import (
+    CYCLIC_MODES,
+    POSITION_MODES,
+    SUPPORT_BITS,
+    TORQUE_MODES,
+    VELOCITY_MODES,
+    Mode,
+    mode_name,
+    parse_mode,
+)
+from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.model import AxisConfig, Timeouts
+
+PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
+
+
+class AxisError(JointError):
+    """An intent on a CiA 402 axis that could not be carried out; the message says why."""
+
+
+class ModeControl:
+    """Modes of operation of one axis: profile position handshake, homing, interpolated
+    position (linear and the family's PVT), cyclic set-points with the command dead-man."""
+
+    # shared with the state-machine driver (set in Axis.__init__)
+    node: NodeIo
+    config: AxisConfig
+    timeouts: Timeouts
+    cycle_period: float
+    profile: Cia402Profile | None
+    pvt: PvtRecord | None
+    key: dict[str, tuple[int, int]]
+    accepted_modes: frozenset[int] | None
+    supported_modes: int | None
+    _cond: threading.Condition
+    _halt: bool
+    _mode: int
+    _pp_phase: int
+    _pp_done: float
+    _homing: bool
+    _ip_point: int | None
+    _feeder: BufferFeeder | None
+    _stop_deceleration: float | None
+    _targets: dict[str, int]
+    _source: SetpointSource | None
+    _last_command: float
+    _stale: bool
+    _written: dict[tuple[int, int], int | float]
+    _message: str
+
+    # provided by the state-machine driver
+    @property
+    def state(self) -> State:
+        raise NotImplementedError
+
+    def _value(self, name: str) -> int | float | None:
+        raise NotImplementedError
+
+    def _where(self) -> str:
+        raise NotImplementedError
+
+    def _require_available(self) -> None:
+        raise NotImplementedError
+
+    def _wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
+        raise NotImplementedError
+
+    def _fault_text(self) -> str:
+        raise NotImplementedError
+
+    # -- each cycle -------------------------------------------------------------------------
+    def _mode_bits(self, state: State, statusword: int) -> int:
+        if state is not State.OPERATION_ENABLED:
+            return 0
+        mode = int(self._value('mode_display') or 0)
+        if mode == Mode.PROFILE_POSITION and self._pp_phase:
+            return self._pp_handshake(statusword)
+        if mode == Mode.HOMING and self._homing:
+            return sm.CW_OMS_4
+        if mode == Mode.INTERPOLATED_POSITION and (self._source is not None or self._feeder is not None):
+            return sm.CW_OMS_4  # interpolation enabled while a stream feeds the drive
+        return 0
+
+    def _pp_handshake(self, statusword: int) -> int:
+        """Profile position set-point handshake, one step per cycle. The target goes out one
+        cycle before the bit 4 edge, so a drive applying RPDOs in COB-ID order at SYNC
+        (controlword first) still latches the new target."""
+        if self._pp_phase == PP_STAGED:
+            self._pp_phase = PP_EDGE
+            return 0
+        if self._pp_phase == PP_EDGE:
+            if statusword & sm.SW_OMS_12:  # acknowledged: drop bit 4
+                self._pp_phase = PP_RELEASE
+                return 0
+            return sm.CW_OMS_4 | sm.CW_OMS_5  # new set-point, change immediately
+        if not statusword & sm.SW_OMS_12:  # the drive dropped its acknowledge: done
+            self._pp_phase = PP_IDLE
+            self._pp_done = self.node.stamp(*self.key['statusword'])
+        return 0
+
+    def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
+        mode = self._mode
+        actual = self._value('position')
+        if state is not State.OPERATION_ENABLED or (not self._targets and self._source is None):
+            # follow the actual position until commanded: enabling never jumps
+            hold = {'target_velocity': 0, 'target_torque': 0}
+            if actual is not None and mode != Mode.PROFILE_POSITION:
+                hold['target_position'] = int(actual)
+            if state is not State.OPERATION_ENABLED:  # commands never survive a drop-out
+                self._targets.clear()
+                self._source = None
+                self._feeder = None
+                self._ip_point = None
+                self._stale = False
+            return hold if not self._targets else {**hold, **self._targets}
+        if self._source is not None:
+            setpoint = self._source(now)
+            if setpoint is not None:
+                self._apply_setpoint(setpoint)
+        if mode in CYCLIC_MODES and self._last_command and \
+                time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
+            self._stale = True
+            self._message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
+                             f'{mode_name(mode)}: holding position')
+            self._targets = {'target_velocity': 0, 'target_torque': 0}
+            if actual is not None:
+                self._targets['target_position'] = int(actual)
+        return dict(self._targets)
+
+    def _apply_setpoint(self, setpoint: Setpoint) -> None:
+        scaling = self.config.scaling
+        if setpoint.position is not None and self._mode == Mode.INTERPOLATED_POSITION:
+            self._ip_point = scaling.position_to_device(setpoint.position)
+        elif setpoint.position is not None:
+            self._targets['target_position'] = scaling.position_to_device(setpoint.position)
+        if setpoint.velocity is not None:
+            self._targets['target_velocity'] = scaling.velocity_to_device(setpoint.velocity)
+        if setpoint.effort is not None:
+            self._targets['target_torque'] = scaling.effort_to_device(setpoint.effort)
+        self._last_command = time.monotonic()
+        self._stale = False
+
+    def _check_supported(self, mode: int) -> None:
+        if self.accepted_modes is not None:
+            if mode not in self.accepted_modes:
+                names = ', '.join(mode_name(m) for m in sorted(self.accepted_modes))
+                raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not accepted by this drive family '
+                                f'(it takes {names})')
+            return
+        if self.supported_modes is None and self.node.has_object(*self.key['supported_modes']):
+            self.supported_modes = int(self.node.sdo_read(*self.key['supported_modes']))  # type: ignore[arg-type]
+        if self.supported_modes is None or mode < 0 or Mode(mode) not in SUPPORT_BITS:
+            return
+        if not self.supported_modes >> SUPPORT_BITS[Mode(mode)] & 1:
+            names = ', '.join(mode_name(m) for m, bit in SUPPORT_BITS.items() if self.supported_modes >> bit & 1)
+            raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not supported by the drive '
+                            f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
+
+    def set_mode(self, mode: int | str, timeout: float | None = None) -> None:
+        """Write 0x6060 and wait until 0x6061 confirms it."""
+        self._require_available()
+        code = parse_mode(mode)
+        self._check_supported(code)
+        if code == Mode.INTERPOLATED_POSITION:
+            self._prepare_interpolation()
+        with self._cond:
+            if code != self._mode:
+                self._targets.clear()
+                self._source = None
+                self._feeder = None
+                self._ip_point = None
+                self._pp_phase = PP_IDLE
+            self._mode = code
+        wait = timeout if timeout is not None else self.timeouts.mode_switch
+        self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+
+    def _prepare_interpolation(self) -> None:
+        """Before entering IP: sub-mode (0x60C0), period = the SYNC period (0x60C2, both
+        sub-indices, in ms: the only unit many drives take), and a cleared buffer (0x60C4:6)."""
+        period_ms = self.cycle_period * 1000.0
+        writes = [('ip_submode', self.config.ip_submode)]
+        if abs(period_ms - round(period_ms)) < 1e-6 and 1 <= round(period_ms) <= 255:
+            writes += [('ip_units', round(period_ms)), ('ip_index', -3)]
+        else:  # 100 us units
+            writes += [('ip_units', round(period_ms * 10)), ('ip_index', -4)]
+        writes += [('ip_clear', 0), ('ip_clear', 1)]
+        for name, value in writes:
+            if self.node.has_object(*self.key[name]):
+                self.node.sdo_write(*self.key[name], value)
+
+    def stop_deceleration(self) -> float:
+        """Deceleration (SI, > 0) for a controlled stop: the joint's max_acceleration limit,
+        else the drive's profile deceleration 0x6084 (read once), else 1 unit/s^2."""
+        if self._stop_deceleration is None:
+            value = self.config.limits.max_acceleration
+            key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
+            if value is None and self.node.has_object(*key):
+                try:
+                    value = abs(float(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)  # type: ignore[arg-type]
+                except Exception:
+                    value = None
+            self._stop_deceleration = value if value else 1.0
+        return self._stop_deceleration
+
+    def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
+        """A stream that pushes interpolation points (PVT) while the drive's buffer has room."""
+        with self._cond:
+            self._feeder = feeder
+            self._source = None if feeder is not None else self._source
+
+    def interpolation_free_slots(self) -> int | None:
+        """Free places in the drive's interpolation buffer (0x60C4:2), None if unknown."""
+        value = self._value('ip_free')
+        return None if value is None else int(value)
+
+    def pvt_time_unit(self) -> float | None:
+        """Seconds per unit of a PVT point's time (None: the family has no PVT)."""
+        return self.pvt.time_unit if self.pvt is not None else None
+
+    def push_interpolation_point(self, position: int, time_units: int, velocity: int) -> None:
+        """Write one PVT point (device units) into the family's record: velocity, time, then
+        position, sent together this cycle; the drive buffers it at the next SYNC."""
+        if self.pvt is None:
+            raise AxisError(f'{self._where()}: the drive family has no PVT interpolation')
+        self.node.write(*self.pvt.velocity, velocity)
+        self.node.write(*self.pvt.time, time_units)
+        self.node.write(*self.pvt.position, position)
+
+    def command_field(self) -> str | None:
+        """Which value a direct command of the current mode carries: position, velocity or effort."""
+        mode = self._mode
+        return ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
+                else 'effort' if mode in TORQUE_MODES else None)
+
+    def stream_strategy(self) -> str | None:
+        """How trajectories are streamed in the requested mode (the family decides)."""
+        if self.profile is not None:
+            return self.profile.streaming_strategy(self._mode, self.config.ip_submode)
+        return standard_strategy(self._mode, self.config.ip_submode, None)
+
+    def is_stream_fault(self, event: EmcyEvent) -> bool:
+        """The family says this EMCY reports an interpolation buffer underflow/overflow."""
+        return (self.profile is not None and event.node_id == self.node.node_id
+                and self.profile.is_stream_fault(event))
+
+    @property
+    def mode(self) -> int:
+        """The mode the bridge requests (0x6060)."""
+        return self._mode
+
+    def _check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
+        limits = self.config.limits
+        for name, value in (('position', position), ('velocity', velocity), ('effort', effort)):
+            if value is not None and not math.isfinite(value):
+                raise AxisError(f'{self._where()}: {name} {value} is not a finite number')
+        if position is not None:
+            if limits.min_position is not None and position < limits.min_position - 1e-12:
+                raise AxisError(f'{self._where()}: position {position:.6g} is below the limit {limits.min_position:.6g}')
+            if limits.max_position is not None and position > limits.max_position + 1e-12:
+                raise AxisError(f'{self._where()}: position {position:.6g} is above the limit {limits.max_position:.6g}')
+        if velocity is not None and limits.max_velocity is not None and abs(velocity) > limits.max_velocity + 1e-12:
+            raise AxisError(f'{self._where()}: velocity {velocity:.6g} exceeds the limit {limits.max_velocity:.6g}')
+        if effort is not None and limits.max_effort is not None and abs(effort) > limits.max_effort + 1e-12:
+            raise AxisError(f'{self._where()}: effort {effort:.6g} exceeds the limit {limits.max_effort:.6g}')
+
+    def check_command(self, position: float | None = None, velocity: float | None = None,
+                      effort: float | None = None) -> None:
+        """Raise AxisError if this command cannot be applied now (limits, mode, state)."""
+        self._check_limits(position, velocity, effort)
+        mode = self._mode
+        if position is not None and mode not in POSITION_MODES:
+            raise AxisError(f'{self._where()}: a position command needs a position mode; mode is {mode_name(mode)}')
+        if velocity is not None and mode not in VELOCITY_MODES and mode != Mode.CYCLIC_SYNC_POSITION:
+            raise AxisError(f'{self._where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
+        if effort is not None and mode not in TORQUE_MODES and mode not in CYCLIC_MODES:
+            raise AxisError(f'{self._where()}: an effort command needs a torque mode; mode is {mode_name(mode)}')
+        if not self.node.available:
+            raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
+        if self.state is not State.OPERATION_ENABLED:
+            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; enable it first')
+
+    def command(self, position: float | None = None, velocity: float | None = None,
+                effort: float | None = None) -> None:
+        """Set targets in SI for the current mode (non-blocking; sent on the next cycle).
+
+        In profile position mode a new position starts a set-point handshake. In cyclic
+        modes commands feed the dead-man: if they stop for ``command_timeout`` the axis holds.
+        """
+        self.check_command(position, velocity, effort)
+        mode = self._mode
+        with self._cond:
+            self._source = None
+            self._apply_setpoint(Setpoint(position, velocity if mode in VELOCITY_MODES else None,
+                                          effort if mode in TORQUE_MODES else None))
+            if mode == Mode.PROFILE_POSITION and position is not None:
+                self._pp_phase = PP_STAGED
+            if mode not in CYCLIC_MODES:
+                self._last_command = 0.0  # profile modes keep their target: no dead-man
+
+    def commanded_position(self) -> float:
+        """SI position the drive is commanded to now (last target written), else the actual."""
+        target = self._written.get(self.key['target_position'])
+        if target is None or self.state is not State.OPERATION_ENABLED:
+            target = self._value('position')
+        return self.config.scaling.position_to_si(target) if target is not None else math.nan
+
+    def set_setpoint_source(self, source: SetpointSource | None) -> None:
+        """A function sampled each cycle (trajectory streaming); None stops sampling."""
+        with self._cond:
+            self._source = source
+            if source is None:
+                self._last_command = time.monotonic()  # the dead-man then holds if nothing follows
+
+    def home(self, timeout: float | None = None) -> None:
+        """Run the drive's homing (0x6098 method etc. from the config, else the drive's own)."""
+        self._require_available()
+        if self.state is not State.OPERATION_ENABLED:
+            raise AxisError(f'{self._where()}: enable the axis before homing (state {self.state.label})')
+        previous = self._mode
+        self._write_homing_parameters()
+        self.set_mode(Mode.HOMING)
+        wait = timeout if timeout is not None else self.timeouts.homing
+        with self._cond:
+            self._homing = True
+
+        def finished() -> bool:
+            statusword = int(self._value('statusword') or 0)
+            if statusword & sm.SW_OMS_13:
+                raise AxisError(f'{self._where()}: the drive reports a homing error (statusword 0x{statusword:04X})')
+            if self.state is not State.OPERATION_ENABLED:
+                raise AxisError(f'{self._where()}: left operation enabled during homing ({self.state.label}){self._fault_text()}')
+            return bool(statusword & sm.SW_OMS_12 and statusword & sm.SW_TARGET_REACHED)
+        try:
+            self._wait(finished, wait, 'homing attained')
+        finally:
+            with self._cond:
+                self._homing = False
+        if previous != Mode.HOMING:
+            self.set_mode(previous)
+
+    def _write_homing_parameters(self) -> None:
+        """Homing method, speeds, acceleration and offset from the config, where given (SDO)."""
+        homing, scaling, slot = self.config.homing, self.config.scaling, self.config.slot
+        velocity = (lambda si: abs(scaling.velocity_to_device(si)))
+        writes = ((obj.HOMING_METHOD, 0, homing.method, int),
+                  (obj.HOMING_SPEEDS, 1, homing.speed_search, velocity),
+                  (obj.HOMING_SPEEDS, 2, homing.speed_zero, velocity),
+                  (obj.HOMING_ACCELERATION, 0, homing.acceleration, velocity),
+                  (obj.HOME_OFFSET, 0, homing.offset,
+                   lambda si: round(si / scaling.position_factor)))
+        for index, subindex, value, convert in writes:
+            if value is not None:
+                self.node.sdo_write(obj.for_axis(index, slot), subindex, convert(value))
+
+    def wait_target_reached(self, timeout: float) -> None:
+        """Wait for statusword bit 10 received after the PP set-point handshake completed."""
+        def reached() -> bool:
+            statusword = int(self._value('statusword') or 0)
+            return (self._pp_phase == PP_IDLE and bool(statusword & sm.SW_TARGET_REACHED)
+                    and self.node.stamp(*self.key['statusword']) > self._pp_done)
+        self._wait(reached, timeout, 'target reached')
