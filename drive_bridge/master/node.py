@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from enum import Enum
 
 import canopen
-from canopen.objectdictionary import datatypes as dt
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
@@ -185,11 +184,13 @@ class NodeRuntime:
         self.sdo.write(index, subindex, value)
 
     def sdo_read_raw(self, index: int, subindex: int = 0) -> bytes:
-        """Blocking SDO read of the bytes as they are (visible strings, domains)."""
-        return self.sdo.read(index, subindex, dt.DOMAIN)[2]
+        """Blocking SDO read of the bytes as they are, never retried: parameter channels are
+        streams, where a repeated request would skip or repeat data."""
+        return self.sdo.upload(index, subindex, retry=False)
 
     def sdo_write_raw(self, index: int, subindex: int, data: bytes) -> None:
-        self.sdo.write(index, subindex, bytes(data), dt.DOMAIN)
+        """Blocking SDO write of bytes as they are, never retried (see sdo_read_raw)."""
+        self.sdo.download(index, subindex, bytes(data), retry=False)
 
     def send_nmt(self, command: int) -> None:
         self.remote.nmt.send_command(command)

@@ -137,9 +137,9 @@ class SdoChannel:
     def _where(self, index: int, subindex: int) -> ObjectAddress:
         return ObjectAddress(self.node.id, index, subindex)
 
-    def _run(self, action, index: int, subindex: int):
+    def _run(self, action, index: int, subindex: int, retry: bool = True):
         where = self._where(index, subindex)
-        attempts = 1 + max(0, self.retries)
+        attempts = 1 + max(0, self.retries) if retry else 1
         for attempt in range(1, attempts + 1):
             try:
                 with self._lock:
@@ -157,11 +157,13 @@ class SdoChannel:
         self.last_error = str(error)
         raise error
 
-    def upload(self, index: int, subindex: int) -> bytes:
-        return self._run(lambda: self.node.sdo.upload(index, subindex), index, subindex)
+    def upload(self, index: int, subindex: int, retry: bool = True) -> bytes:
+        """The object's bytes; ``retry=False`` for objects whose every access has an effect
+        (a stream such as an ASCII channel, where a repeated request would skip data)."""
+        return self._run(lambda: self.node.sdo.upload(index, subindex), index, subindex, retry)
 
-    def download(self, index: int, subindex: int, data: bytes) -> None:
-        self._run(lambda: self.node.sdo.download(index, subindex, data), index, subindex)
+    def download(self, index: int, subindex: int, data: bytes, retry: bool = True) -> None:
+        self._run(lambda: self.node.sdo.download(index, subindex, data), index, subindex, retry)
 
     def od_type(self, index: int, subindex: int) -> int:
         """Data type of an object from the node's EDS; SdoError when it is not there."""

@@ -1,0 +1,102 @@
+"""Drive parameters through ROS: ~/param_read, ~/param_write, ~/param_save on the bus node.
+
+A demo-like bridge (the demo's generic CiA 402 base drive, node 2, plus a simulated Kollmorgen
+AKD as node 1, joint1) runs in-process on a private rclpy context; the test talks to it only
+through the services and inspects the simulated AKD to see what reached it.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from drive_bridge_interfaces.srv import ParamRead, ParamSave, ParamWrite
+from rclpy.parameter import Parameter
+
+from bustools import demo_data
+from drive_bridge.ros.node import BusNode
+from rostools import RosHarness, ros_harness
+
+NS = '/drive_bridge'
+AKD_EXAMPLE = Path(__file__).resolve().parent.parent / 'config' / 'akd_pvt_example.yaml'
+
+
+def config_text() -> str:
+    data = demo_data()
+    data['nodes'] = {'base_drive': data['nodes']['base_drive'],
+                     'akd': yaml.safe_load(AKD_EXAMPLE.read_text())['nodes']['akd']}
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+@pytest.fixture(scope='module')
+def setup() -> Iterator[tuple[RosHarness, BusNode]]:
+    with ros_harness() as ros:
+        node = BusNode(context=ros.context, parameter_overrides=[Parameter('config_yaml', value=config_text())])
+        ros.add(node)
+        try:
+            node.master.wait_until_operational(15.0)
+            yield ros, node
+        finally:
+            node.close()
+
+
+def call(ros: RosHarness, srv_type: Any, name: str, **fields: Any) -> Any:
+    client = ros.node(f'param_client_{time.monotonic_ns() % 1000000}').create_client(srv_type, f'{NS}/{name}')
+    return ros.call(client, srv_type.Request(**fields), timeout=15.0)
+
+
+def test_param_read_by_joint_and_by_node(setup: tuple[RosHarness, BusNode]) -> None:
+    ros, bridge = setup
+    drive = bridge.simulation.drive(1)
+    read = call(ros, ParamRead, 'param_read', joint='joint1', parameter='DRV.ACC')
+    assert read.success, read.message
+    assert read.is_number and read.value == drive.value(0x3501) and read.unit == 'counts/s^2'
+    assert read.has_range and (read.minimum, read.maximum) == (-2 ** 31, 2 ** 31 - 1)
+    assert read.access == 'rw' and read.save_needed
+    assert read.message.startswith('joint joint1: DRV.ACC = ')
+    by_node = call(ros, ParamRead, 'param_read', node_id=1, parameter='drv.faults')
+    assert by_node.success and by_node.value_text == 'No faults active' and not by_node.is_number
+    assert not by_node.has_range and by_node.access == 'ro'
+
+
+def test_param_write_then_save(setup: tuple[RosHarness, BusNode]) -> None:
+    ros, bridge = setup
+    drive = bridge.simulation.drive(1)
+    written = call(ros, ParamWrite, 'param_write', joint='joint1', parameter='MOTOR.ICONT', value='2.5')
+    assert written.success, written.message
+    assert written.value == 2.5 and written.value_text == '2.500' and written.unit == 'A' and written.save_needed
+    assert 'param_save' in written.message  # says the value is lost without a save
+    assert drive.value(0x358E) == 2500
+    saved = call(ros, ParamSave, 'param_save', node_id=1)
+    assert saved.success and 'DRV.NVSAVE' in saved.message, saved.message
+    with drive.lock:
+        assert drive.store.defaults[0x358E << 8] == 2500  # the power-on value now
+
+
+@pytest.mark.parametrize('srv, name, fields, reason', [
+    (ParamRead, 'param_read', {'joint': 'wrist_joint', 'parameter': 'DRV.ACC'},
+     "unknown joint 'wrist_joint'; this bus has base_joint, joint1"),
+    (ParamRead, 'param_read', {'joint': 'joint1', 'parameter': 'DRV.ACCC'},
+     'joint joint1: node 1 (akd): DRV.ACCC: unknown AKD parameter; did you mean DRV.ACC'),
+    (ParamWrite, 'param_write', {'node_id': 1, 'parameter': 'DRV.ACC', 'value': '5e9'},
+     'node 1 (akd): DRV.ACC: 5e9 is above the maximum 2147483647'),
+    (ParamWrite, 'param_write', {'node_id': 1, 'parameter': 'VL.FB', 'value': '1'},
+     'node 1 (akd): VL.FB: is read-only'),
+    (ParamRead, 'param_read', {'joint': 'base_joint', 'parameter': 'DRV.ACC'},
+     "joint base_joint: node 2 (base_drive): drive family 'generic_402' offers no access to vendor parameters"),
+    (ParamSave, 'param_save', {'node_id': 2}, "node 2 (base_drive): drive family 'generic_402' offers no access"),
+    (ParamRead, 'param_read', {'node_id': 50, 'parameter': 'DRV.ACC'},
+     'node 50 is not in the bus configuration (configured: 2 (base_drive), 1 (akd))'),
+    (ParamRead, 'param_read', {'parameter': 'DRV.ACC'}, 'no target: give a joint, or a node_id'),
+    (ParamWrite, 'param_write', {'node_id': 1, 'parameter': 'DRV.STOP', 'value': ''},
+     'DRV.STOP: the drive refused'),
+])
+def test_errors_are_named(setup: tuple[RosHarness, BusNode], srv: Any, name: str, fields: dict[str, Any],
+                          reason: str) -> None:
+    ros, _bridge = setup
+    response = call(ros, srv, name, **fields)
+    assert not response.success
+    assert reason in response.message, response.message
