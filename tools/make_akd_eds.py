@@ -58,7 +58,9 @@ Other choices where the manual is silent or self-contradictory:
   CiA 402 objects the AKD lacks (0x603F, 0x605A-0x605E, 0x6062, 0x6066-0x6068, 0x6085,
   0x607F, 0x6080, 0x60C5, 0x60C6, ...) are absent, so a master gets 0x06020000 for them.
 - Left out although in the manual (nothing simulated behind them): touch probe 0x60B8-0x60BD
-  and 0x60D0, latches 0x20A0-0x20A6, 0x1026 / 0x2026 ASCII channels, 0x2071 / 0x2077.
+  and 0x60D0, latches 0x20A0-0x20A6, the 0x1026 console, 0x2071 / 0x2077.
+- 0x2026 is the ASCII channel (sub 1 command WO, sub 2 response RO, 4 characters each, §9.11):
+  the family's parameter access (families/akd_parameters.py) talks through it.
 """
 from __future__ import annotations
 
@@ -157,6 +159,8 @@ def manufacturer(od: canopen.ObjectDictionary) -> None:
     add(container('pv scaling factor', 0x204C, [
         var('pv scaling numerator', 0x204C, 1, I32, 'rw', 1, low=-32768, high=32767),
         var('pv scaling denominator', 0x204C, 2, I32, 'rw', 1, low=-32768, high=32767)], array=True))
+    add(container('ASCII channel', 0x2026, [
+        var('Command', 0x2026, 1, VS, 'wo', ''), var('Response', 0x2026, 2, VS, 'ro', '')]))
     add(var('Dummy (4 bytes, for shared RPDOs)', 0x2100, 0, U32, 'rw', 0, mappable=True))
     add(container('Controlled stop (CS)', 0x3440, [
         var('CS.DEC', 0x3440, 1, U32, 'rw', 200 * COUNTS_PER_REV),
