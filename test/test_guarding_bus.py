@@ -7,12 +7,12 @@ import struct
 import time
 from typing import Any
 
+from akdtools import Sniffer
 from bustools import config_from, eventually, running, unique_channel
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.sim import SimulatedBus
-from akdtools import Sniffer
 
 NODE = 6
 GUARD_MS = 40
@@ -60,6 +60,7 @@ def test_a_repeated_toggle_is_reported_as_a_guarding_error() -> None:
         event = eventually(lambda: next((e for e in master.events if e.kind is EventKind.GUARDING_ERROR), None),
                            2.0, 'guarding error event')
         assert f'node {NODE}' in event.message and 'toggle' in event.message
+        assert master.nodes['arm'].snapshot().guarding_toggle_errors >= 1  # also in /diagnostics
         sim.drive(NODE).repeat_guarding_toggle(False)
 
 

@@ -53,6 +53,7 @@ class NodeSnapshot:
     last_pdo_error: str
     emcy: tuple[EmcyEvent, ...]  # newest last
     liveness: str = 'heartbeat'  # heartbeat, node guarding or none
+    guarding_toggle_errors: int = 0  # repeated toggle bits seen (node guarding)
 
 
 class NodeRuntime:
@@ -213,7 +214,8 @@ class NodeRuntime:
                 heartbeat_age=age, boot_attempts=self.boot_attempts, boot_error=self.boot_error,
                 sdo_errors=self.sdo.errors, last_sdo_error=self.sdo.last_error,
                 pdo_errors=self.process.rx_errors, last_pdo_error=self.process.last_rx_error,
-                emcy=tuple(self._emcy), liveness=self.liveness.value)
+                emcy=tuple(self._emcy), liveness=self.liveness.value,
+                guarding_toggle_errors=self.guard.status(time.monotonic()).toggle_errors if self.guard else 0)
 
     def close(self) -> None:
         self.worker.stop()

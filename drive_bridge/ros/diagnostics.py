@@ -56,8 +56,9 @@ def node_status(node: NodeSnapshot) -> DiagnosticStatus:
     last = node.emcy[-1] if node.emcy else None
     status.values = _values(
         nmt_state=node.nmt_state, boot_state=node.boot_state.value, boot_attempts=node.boot_attempts,
-        boot_error=node.boot_error,
+        boot_error=node.boot_error, liveness=node.liveness,
         heartbeat_age='never' if node.heartbeat_age is None else _ms(node.heartbeat_age),
+        guarding_toggle_errors=node.guarding_toggle_errors,
         sdo_errors=node.sdo_errors, last_sdo_error=node.last_sdo_error, pdo_errors=node.pdo_errors,
         last_pdo_error=node.last_pdo_error, emcy_count=len(node.emcy),
         last_emcy='' if last is None else f'0x{last.code:04X} {last.text}')
