@@ -159,7 +159,7 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
                     errors.append(demand * factor - ideals[node_id - 1](stamp - lag - start)[0])
                     delay = max(delay, lag)
         underflows = emcy_codes.count(0x8585)
-        overflows = emcy_codes.count(0x8584) + sum(getattr(d.axes[0], 'ip').overflows for d in sim.drives.values())
+        overflows = emcy_codes.count(0x8584) + sum(d.axes[0].ip.overflows for d in sim.drives.values())
         if handle is not None and handle.state == 'aborted':
             print(f'  note: {strategy} {period_ms} ms {name}: aborted: {handle.reason}')
         return Row(strategy, period_ms, name,
@@ -167,7 +167,8 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
                    math.sqrt(statistics.fmean(e * e for e in errors)) if errors else math.nan,
                    (stats.lead_median if stats else 0) * 1e6, (stats.lead_max if stats else 0) * 1e6,
                    underflows, overflows,
-                   (traffic.rx_frames + traffic.tx_frames - traffic_before.rx_frames - traffic_before.tx_frames) / elapsed,
+                   (traffic.rx_frames + traffic.tx_frames
+                    - traffic_before.rx_frames - traffic_before.tx_frames) / elapsed,
                    skipped, delay * 1000)
     finally:
         master.stop()

@@ -12,8 +12,8 @@ from typing import Any
 import yaml
 
 from drive_bridge.config import parse_bus_config
-from drive_bridge.model import BusConfig
 from drive_bridge.master.master import Master
+from drive_bridge.model import BusConfig
 from drive_bridge.sim import SimulatedBus
 from rostools import wait_for as eventually  # noqa: F401  (one polling helper for all tests)
 

@@ -182,7 +182,8 @@ def test_bridge_boots_the_example_and_feeds_pvt_places_from_tpdo() -> None:
         assert drive.axis().state is State.OPERATION_ENABLED
         assert drive.value(0x60C0) == -2 and drive.axis_akd.interpolation_period() == pytest.approx(0.004)
         eventually(lambda: axis.interpolation_free_slots() == 9, 1.0, '0x60C4:2 from TPDO1')
-        axis.push_interpolation_point(position=drive.axis().position + 1000, time_units=20, velocity=0)  # ms: the AKD PVT time unit
+        # time_units: ms, the AKD PVT time unit
+        axis.push_interpolation_point(position=drive.axis().position + 1000, time_units=20, velocity=0)
         eventually(lambda: axis.interpolation_free_slots() == 8, 1.0, 'one place taken (bit 4 is off)')
         snapshot = master.snapshot()
         assert snapshot.nodes[0].sdo_errors == 0 and snapshot.nodes[0].emcy == ()

@@ -1,6 +1,6 @@
 """Node guarding keys (guard_time_ms, life_time_factor): accepted, refused, and how they
 share a node with heartbeat_producer. The nodes use the AKD family, whose shipped EDS has
-0x100C and 0x100D (the generic 402 EDS has neither)."""
+0x100C and 0x100D (so does the generic 402 EDS)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -121,13 +121,19 @@ def test_out_of_range_values(tmp_path: Path) -> None:
 
 
 def test_a_guarded_node_needs_writable_guard_objects_in_its_eds(tmp_path: Path) -> None:
+    text = AKD_EDS.read_text(encoding='utf-8')
+    without = text
+    for index in ('100C', '100D'):  # an EDS without the guarding objects
+        start = without.index(f'[{index}]')
+        without = without[:start] + without[without.index('\n[', start + 1) + 1:]
+        without = without.replace(f'=0x{index}\n', '=0x1000\n')
+    (tmp_path / 'no_guard.eds').write_text(without, encoding='utf-8')
     assert problems(tmp_path, """
         nodes:
-          a: {node_id: 1, axes: [], guard_time_ms: 100}
+          a: {node_id: 1, family: akd, dcf: no_guard.eds, axes: [], guard_time_ms: 100}
     """) == [
         'drives.yaml: nodes.a.guard_time_ms: node guarding writes 0x100C (guard time) and 0x100D (life time factor) '
-        'at boot, but object 0x100C:00 is not in generic402.eds; object 0x100D:00 is not in generic402.eds']
-    text = AKD_EDS.read_text(encoding='utf-8')
+        'at boot, but object 0x100C:00 is not in no_guard.eds; object 0x100D:00 is not in no_guard.eds']
     guard_section = text.index('[100C]')
     access = text.index('AccessType=rw', guard_section)
     (tmp_path / 'fixed_guard.eds').write_text(text[:access] + 'AccessType=ro' + text[access + 13:], encoding='utf-8')

@@ -15,8 +15,7 @@ from akdtools import Sniffer
 from bustools import config_from, running, unique_channel
 from drive_bridge.families import DriveFamily, PdoConfiguration, get_family, register_family, unregister_family
 from drive_bridge.model import PdoConfig
-from drive_bridge.sim import SimDrive402, register_simulator
-from drive_bridge.sim import registry as sim_registry
+from drive_bridge.sim import SimDrive402, register_simulator, registry as sim_registry
 
 FAMILY = 'acme_library'
 NODE = 11

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from drive_bridge_interfaces.msg import AxisState, CanFrame, Emcy, SdoValue
 from drive_bridge_interfaces.srv import NmtCommand, SdoRead, SdoWrite
+
 from rostools import RosHarness, wait_for
 
 # CiA 301 basic data type codes, from the standard (not from the generated code).

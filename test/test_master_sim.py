@@ -15,8 +15,8 @@ from canopen.objectdictionary import datatypes as dt
 
 from bustools import config_from, demo_data, eventually, running
 from drive_bridge.cia402.axis import AxisError
-from drive_bridge.joint import Setpoint
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.joint import Setpoint
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.sdo import SdoError
 

@@ -206,7 +206,8 @@ def test_sdo_and_nmt_services_answer_typed_values_and_precise_errors(ros: RosHar
     assert not bad.success and 'unknown NMT command 7' in bad.message
     reset = call(ros, NmtCommand, f'{NS}/nmt', command=NmtCommand.Request.RESET_NODE, node_id=4)
     assert reset.success and reset.message == 'NMT reset node sent to node 4'
-    wait_for(lambda: bridge.master.nodes['lift_drive'].boot_attempts >= 2 and bridge.master.nodes['lift_drive'].available,
+    wait_for(lambda: (bridge.master.nodes['lift_drive'].boot_attempts >= 2
+                      and bridge.master.nodes['lift_drive'].available),
              5, 'node 4 configured again after its reset')
 
 

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from drive_bridge_interfaces.msg import CanFrame
+
 from rostools import RosHarness, wait_for
 
 REPO = Path(__file__).resolve().parent.parent

@@ -15,8 +15,15 @@ from drive_bridge.sim import SimDrive402, SimulatedBus, SimulatedSlave, simulate
 from drive_bridge.sim.bench import measure
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, describe
 from drive_bridge.sim.slave import NOTIFIER_CYCLE
-from drive_bridge.sim.testing import (GENERIC402_2AXIS_EDS, GENERIC402_EDS, FrameLog, SyncLoop, node_config,
-                                      unique_channel, wait_until)
+from drive_bridge.sim.testing import (
+    GENERIC402_2AXIS_EDS,
+    GENERIC402_EDS,
+    FrameLog,
+    SyncLoop,
+    node_config,
+    unique_channel,
+    wait_until,
+)
 
 
 def three_node_config(channel: str, options: dict | None = None) -> BusConfig:

@@ -9,8 +9,16 @@ from collections.abc import Iterator
 import canopen
 import pytest
 
-from drive_bridge.cia402.statemachine import (SW_FAULT, SW_INTERNAL_LIMIT, SW_OMS_12, SW_OMS_13,
-                                              SW_TARGET_REACHED, SW_WARNING, State, state_from_statusword)
+from drive_bridge.cia402.statemachine import (
+    SW_FAULT,
+    SW_INTERNAL_LIMIT,
+    SW_OMS_12,
+    SW_OMS_13,
+    SW_TARGET_REACHED,
+    SW_WARNING,
+    State,
+    state_from_statusword,
+)
 from drive_bridge.sim import SimDrive402
 from drive_bridge.sim.testing import GENERIC402_2AXIS_EDS, SimBench, SyncLoop, wait_until
 
@@ -328,7 +336,7 @@ def test_interpolated_position_with_buffered_points(bench: SimBench) -> None:
     wait_until(lambda: node.sdo[0x6041].raw & SW_TARGET_REACHED, 0.5)
     assert sim.axis().position == pytest.approx(500, abs=2)
     write_cw(node, 0x0F)  # IP inactive: nothing consumed
-    for point in range(17):  # one too many
+    for _point in range(17):  # one too many
         node.sdo[0x60C1][1].raw = 600
     assert node.sdo[0x6041].raw & SW_WARNING and node.sdo[0x60C4][2].raw == 0
     node.sdo[0x60C4][6].raw = 0  # clear (and disable access)

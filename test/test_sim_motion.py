@@ -5,9 +5,19 @@ import math
 
 import pytest
 
-from drive_bridge.sim.motion import (Segment, lag_follow, max_acceleration, motor_torque, position_step,
-                                     ramp_value, ramp_velocity, stop_step, torque_drive, velocity_step,
-                                     wrap_int32)
+from drive_bridge.sim.motion import (
+    Segment,
+    lag_follow,
+    max_acceleration,
+    motor_torque,
+    position_step,
+    ramp_value,
+    ramp_velocity,
+    stop_step,
+    torque_drive,
+    velocity_step,
+    wrap_int32,
+)
 
 
 def run_position(target: float, v_max: float, acc: float, dec: float, dt: float = 0.004,

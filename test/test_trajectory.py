@@ -6,8 +6,14 @@ import math
 import pytest
 
 from drive_bridge.model import AxisLimits
-from drive_bridge.streaming.trajectory import (JointSample, Trajectory, TrajectoryError, TrajectoryPoint,
-                                               joint_splines, validate)
+from drive_bridge.streaming.trajectory import (
+    JointSample,
+    Trajectory,
+    TrajectoryError,
+    TrajectoryPoint,
+    joint_splines,
+    validate,
+)
 
 LIMITS = {'a': AxisLimits(min_position=-1.0, max_position=1.0, max_velocity=2.0), 'b': AxisLimits()}
 REST = JointSample(0.0, 0.0, 0.0)

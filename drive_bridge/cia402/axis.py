@@ -71,7 +71,8 @@ class Axis(ModeControl):
         self.key.update(position=objects.position_actual, velocity=objects.velocity_actual,
                         torque=objects.effort_actual, target_position=objects.target_position,
                         target_velocity=objects.target_velocity, target_torque=objects.target_effort)
-        ip = (lambda index, sub: (obj.for_axis(index, slot), sub))
+        def ip(index: int, sub: int) -> tuple[int, int]:
+            return obj.for_axis(index, slot), sub
         self.key.update(ip_position=ip(obj.INTERPOLATION_DATA_RECORD, 1),
                         ip_units=ip(obj.INTERPOLATION_TIME_PERIOD, 1), ip_index=ip(obj.INTERPOLATION_TIME_PERIOD, 2),
                         ip_free=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 2),
@@ -100,7 +101,9 @@ class Axis(ModeControl):
         self._reset_emcy_count = 0
         self.supported_modes: int | None = None  # 0x6502, read on the first mode change
         # the drive family's list, when 0x6502 under-reports
-        self.accepted_modes = profile.accepted_modes if profile is not None and accepted_modes is None else accepted_modes
+        if accepted_modes is None and profile is not None:
+            accepted_modes = profile.accepted_modes
+        self.accepted_modes = accepted_modes
         node.add_input_listener(self._on_input)
 
     # -- bus side ---------------------------------------------------------------------------
@@ -318,5 +321,6 @@ class Axis(ModeControl):
             position=position, velocity=velocity, effort=effort, stamp=stamp,
             fault=bool(sw & sm.SW_FAULT), warning=bool(sw & sm.SW_WARNING),
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
-            following_error=bool(sw & sm.SW_OMS_13) and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION),
+            following_error=(bool(sw & sm.SW_OMS_13)
+                             and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),
             halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(), message=self._message)

@@ -30,6 +30,13 @@ from drive_bridge.model import AxisConfig, Timeouts
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
 
 
+def _number(value: int | float | str | bytes) -> int:
+    """An SDO value that must be a number (the EDS types these objects as integers)."""
+    if isinstance(value, (str, bytes)):
+        raise AxisError(f'expected a number, the drive sent {value!r}')
+    return int(value)
+
+
 class AxisError(JointError):
     """An intent on a CiA 402 axis that could not be carried out; the message says why."""
 
@@ -164,7 +171,7 @@ class ModeControl:
                                 f'(it takes {names})')
             return
         if self.supported_modes is None and self.node.has_object(*self.key['supported_modes']):
-            self.supported_modes = int(self.node.sdo_read(*self.key['supported_modes']))  # type: ignore[arg-type]
+            self.supported_modes = _number(self.node.sdo_read(*self.key['supported_modes']))
         if self.supported_modes is None or mode < 0 or Mode(mode) not in SUPPORT_BITS:
             return
         if not self.supported_modes >> SUPPORT_BITS[Mode(mode)] & 1:
@@ -212,7 +219,7 @@ class ModeControl:
             key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
             if value is None and self.node.has_object(*key):
                 try:
-                    value = abs(float(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)  # type: ignore[arg-type]
+                    value = abs(_number(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)
                 except Exception:
                     value = None
             self._stop_deceleration = value if value else 1.0
@@ -271,9 +278,11 @@ class ModeControl:
                 raise AxisError(f'{self._where()}: {name} {value} is not a finite number')
         if position is not None:
             if limits.min_position is not None and position < limits.min_position - 1e-12:
-                raise AxisError(f'{self._where()}: position {position:.6g} is below the limit {limits.min_position:.6g}')
+                raise AxisError(f'{self._where()}: position {position:.6g} is below the limit '
+                                f'{limits.min_position:.6g}')
             if limits.max_position is not None and position > limits.max_position + 1e-12:
-                raise AxisError(f'{self._where()}: position {position:.6g} is above the limit {limits.max_position:.6g}')
+                raise AxisError(f'{self._where()}: position {position:.6g} is above the limit '
+                                f'{limits.max_position:.6g}')
         if velocity is not None and limits.max_velocity is not None and abs(velocity) > limits.max_velocity + 1e-12:
             raise AxisError(f'{self._where()}: velocity {velocity:.6g} exceeds the limit {limits.max_velocity:.6g}')
         if effort is not None and limits.max_effort is not None and abs(effort) > limits.max_effort + 1e-12:
@@ -344,7 +353,8 @@ class ModeControl:
             if statusword & sm.SW_OMS_13:
                 raise AxisError(f'{self._where()}: the drive reports a homing error (statusword 0x{statusword:04X})')
             if self.state is not State.OPERATION_ENABLED:
-                raise AxisError(f'{self._where()}: left operation enabled during homing ({self.state.label}){self._fault_text()}')
+                raise AxisError(f'{self._where()}: left operation enabled during homing '
+                                f'({self.state.label}){self._fault_text()}')
             return bool(statusword & sm.SW_OMS_12 and statusword & sm.SW_TARGET_REACHED)
         try:
             self._wait(finished, wait, 'homing attained')

@@ -30,7 +30,8 @@ class AxisObjects:
     @classmethod
     def cia402(cls, slot: int) -> AxisObjects:
         """The standard objects (0x6064, 0x606C, 0x6077, 0x607A, 0x60FF, 0x6071) of a slot."""
-        at = (lambda index: (obj.for_axis(index, slot), 0))
+        def at(index: int) -> ObjectKey:
+            return obj.for_axis(index, slot), 0
         return cls(at(obj.POSITION_ACTUAL), at(obj.VELOCITY_ACTUAL), at(obj.TORQUE_ACTUAL),
                    at(obj.TARGET_POSITION), at(obj.TARGET_VELOCITY), at(obj.TARGET_TORQUE))
 
@@ -57,10 +58,16 @@ class FaultModel:
 class Cia402Profile(Protocol):
     """The family side of a CiA 402 axis (implemented by ``DriveFamily``)."""
 
-    name: str
-    accepted_modes: frozenset[int] | None  # None: trust 0x6502
-    pvt_submode: int | None
-    fault_model: FaultModel
+    @property
+    def name(self) -> str: ...
+    @property
+    def accepted_modes(self) -> frozenset[int] | None:
+        """The modes the drive takes; None: trust 0x6502."""
+        ...
+    @property
+    def pvt_submode(self) -> int | None: ...
+    @property
+    def fault_model(self) -> FaultModel: ...
 
     def axis_objects(self, slot: int) -> AxisObjects: ...
     def pvt_record(self, slot: int) -> PvtRecord | None: ...

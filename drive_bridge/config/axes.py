@@ -15,11 +15,11 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import POSITION_MODES, SHORT_NAMES, TORQUE_MODES, VELOCITY_MODES, mode_name, parse_mode
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.model import AxisConfig, AxisLimits, HomingConfig, JointType
 from drive_bridge.config.odcheck import hex_index, known_name
 from drive_bridge.config.reader import Section, describe, to_str
 from drive_bridge.config.scaling import parse_scaling
 from drive_bridge.families import DriveFamily
+from drive_bridge.model import AxisConfig, AxisLimits, HomingConfig, JointType
 
 JOINT_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 CORE_OBJECTS = (obj.CONTROLWORD, obj.STATUSWORD, obj.MODES_OF_OPERATION, obj.MODES_OF_OPERATION_DISPLAY,
@@ -191,7 +191,8 @@ def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str,
         if joint is None:
             continue
         axis = AxisConfig(joint=joint, slot=index, scaling=scaling, where=f'{file}: {where.path}',
-                          ip_submode=family.pvt_submode if family.default_interpolation == 'pvt' else 0, **modes)
+                          ip_submode=(family.pvt_submode or 0) if family.default_interpolation == 'pvt' else 0,
+                          **modes)
         drafts.append(AxisDraft(axis, where, joint_loc, where))
     return drafts
 

@@ -23,8 +23,8 @@ MASTER_IGNORED: dict[str, str] = {
 }
 
 IDENTITY = ('device_type', 'vendor_id', 'product_code', 'revision_number', 'serial_number')
-TIMEOUTS_MS = ('boot_timeout_ms', 'boot_retry_interval_ms', 'sdo_timeout_ms', 'state_switch_timeout_ms', 'mode_switch_timeout_ms',
-               'homing_timeout_ms', 'command_timeout_ms')
+TIMEOUTS_MS = ('boot_timeout_ms', 'boot_retry_interval_ms', 'sdo_timeout_ms', 'state_switch_timeout_ms',
+               'mode_switch_timeout_ms', 'homing_timeout_ms', 'command_timeout_ms')
 RETRIES = ('boot_retries', 'sdo_retries')
 MODE_KEYS = ('position_mode', 'velocity_mode', 'effort_mode')
 LINEAR_SCALING = ('scale_pos_to_dev', 'scale_pos_from_dev', 'offset_pos_to_dev', 'offset_pos_from_dev',

@@ -11,11 +11,11 @@ import can
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
 from drive_bridge.config.reader import Section, describe, suggestion
 from drive_bridge.config.yamlio import parse_yaml, read_yaml
+from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
 
 _BUS_ARGS = ('interface', 'channel', 'bitrate')
 

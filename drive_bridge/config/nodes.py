@@ -18,11 +18,11 @@ from drive_bridge.config.axes import AxisDraft, check_axis_objects, parse_axes
 from drive_bridge.config.eds import EdsError, read_object_dictionary
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.guarding import Supervision, check_guarding_objects, parse_supervision
-from drive_bridge.model import Identity, MasterConfig, NodeConfig, Timeouts
 from drive_bridge.config.pdo import PdoDraft, family_drafts, parse_pdo_table, resolve_pdo
 from drive_bridge.config.reader import Section, describe, suggestion
 from drive_bridge.config.sdo import parse_boot_sdo
 from drive_bridge.families import DriveFamily, family_names, get_family
+from drive_bridge.model import Identity, MasterConfig, NodeConfig, Timeouts
 
 NODE_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
 BUS_CONFIG_PATH = '@BUS_CONFIG_PATH@'  # ros2_canopen's build-time placeholder: the bus.yml's directory

@@ -8,12 +8,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from canopen import ObjectDictionary
-from canopen.objectdictionary import ODArray, ODRecord, ODVariable
-from canopen.objectdictionary import datatypes as dt
+from canopen.objectdictionary import ODArray, ODRecord, ODVariable, datatypes as dt
 
 from drive_bridge.cia402 import objects as cia402
-from drive_bridge.model import SdoScalar
 from drive_bridge.config.reader import describe, parse_int_text
+from drive_bridge.model import SdoScalar
 
 TYPE_NAMES: dict[int, str] = {value: name for name, value in vars(dt).items()
                               if name.isupper() and isinstance(value, int)}

@@ -10,9 +10,9 @@ from typing import Any, Literal
 from canopen import ObjectDictionary
 from canopen.objectdictionary import ODArray, ODRecord
 
+from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.model import PdoConfig, PdoEntry
 from drive_bridge.config.odcheck import (
     hex_cob,
     hex_index,
@@ -26,7 +26,7 @@ from drive_bridge.config.odcheck import (
 )
 from drive_bridge.config.reader import Section, describe, parse_int_text
 from drive_bridge.config.sdo import read_index
-from drive_bridge.cia301.cob import predefined_cob_id
+from drive_bridge.model import PdoConfig, PdoEntry
 
 Kind = Literal['rpdo', 'tpdo']
 MAX_PDO_BITS = 64

@@ -10,8 +10,8 @@ import math
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.model import AxisScaling, JointType
 from drive_bridge.config.reader import Section, describe
+from drive_bridge.model import AxisScaling, JointType
 
 RECIPROCAL_TOLERANCE = 1e-9
 

@@ -8,9 +8,9 @@ from canopen import ObjectDictionary
 
 from drive_bridge.config import keys
 from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.model import SdoWriteItem
 from drive_bridge.config.odcheck import convert_value, is_writable, lookup, var_ref
 from drive_bridge.config.reader import Section, to_int
+from drive_bridge.model import SdoWriteItem
 
 
 def read_index(sec: Section) -> tuple[int | None, int | None]:

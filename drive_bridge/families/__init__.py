@@ -2,12 +2,25 @@
 cannot say; the one boundary the core talks to. Look families up by name with
 :func:`get_family`; add one with :func:`register_family` or the ``drive_bridge.families``
 entry point group."""
-from drive_bridge.families.interface import (DATA_DIR, BootDetection, DriveFamily, Liveness,
-                                             PdoConfiguration)
-from drive_bridge.families.registry import (ENTRY_POINT_GROUP, FamilyError, discover_families, family_names,
-                                            get_family, register_family, unregister_family)
-from drive_bridge.families import generic301 as _generic301, generic402 as _generic402  # noqa: F401,E402  (register themselves)
-from drive_bridge.families import akd as _akd  # noqa: F401,E402  (registers itself)
+from drive_bridge.families.interface import DATA_DIR, BootDetection, DriveFamily, Liveness, PdoConfiguration
+from drive_bridge.families.registry import (
+                                             ENTRY_POINT_GROUP,
+                                             FamilyError,
+                                             discover_families,
+                                             family_names,
+                                             get_family,
+                                             register_family,
+                                             unregister_family,
+)
+
+# isort: split
+# the built-in families register themselves on import
+from drive_bridge.families import (
+                                             akd as _akd,  # noqa: F401
+                                             generic301 as _generic301,  # noqa: F401
+                                             generic402 as _generic402,  # noqa: F401
+)
 
 __all__ = ['DATA_DIR', 'ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'Liveness',
-           'PdoConfiguration', 'discover_families', 'family_names', 'get_family', 'register_family', 'unregister_family']
+           'PdoConfiguration', 'discover_families', 'family_names', 'get_family', 'register_family',
+           'unregister_family']

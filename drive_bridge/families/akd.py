@@ -38,16 +38,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia301.emcy import EmcyEvent, Severity
+from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
-from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.families.akd_parameters import AkdParameters
 from drive_bridge.families.interface import DATA_DIR, DriveFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
+from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 
 SYNC_EVERY_CYCLE = 1
 EVENT_DRIVEN = 255  # the AKD knows no type 254

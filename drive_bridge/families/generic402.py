@@ -4,11 +4,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from drive_bridge.cia402 import objects as obj
-from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 from drive_bridge.cia301.cob import predefined_cob_id
+from drive_bridge.cia402 import objects as obj
 from drive_bridge.families.interface import DATA_DIR, DriveFamily
 from drive_bridge.families.registry import register_family
+from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 
 SYNC_EVERY_CYCLE = 1
 EVENT_DRIVEN = 255

@@ -6,18 +6,20 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
-from drive_bridge.model import NodeConfig
-
 from drive_bridge.joint.nodeio import SdoValue
+from drive_bridge.model import NodeConfig
 
 
 class NodePort(Protocol):
     """A node as boot steps and parameter access see it. SDO failures raise the master's
     ``SdoError`` (a ``DriveBridgeError`` naming node, object and abort code)."""
 
-    node_id: int
-    name: str
-    config: NodeConfig
+    @property
+    def node_id(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def config(self) -> NodeConfig: ...
 
     def sdo_read(self, index: int, subindex: int = 0) -> SdoValue: ...
     def sdo_write(self, index: int, subindex: int, value: int | float) -> None: ...

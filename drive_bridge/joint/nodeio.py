@@ -13,8 +13,10 @@ SdoValue = int | float | str | bytes
 class NodeIo(Protocol):
     """What a joint driver needs from its node: process data (mapped or by SDO), SDO, EMCY."""
 
-    node_id: int
-    name: str
+    @property
+    def node_id(self) -> int: ...
+    @property
+    def name(self) -> str: ...
 
     @property
     def available(self) -> bool: ...

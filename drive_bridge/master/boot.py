@@ -47,6 +47,24 @@ def _sdo_step(node: NodeRuntime, step: str, action: Callable[[], object]) -> obj
         raise BootError(node, step, str(exc), exc.abort_code) from exc
 
 
+def _sdo_read(node: NodeRuntime, step: str, index: int, subindex: int) -> int:
+    """An integer object, read as a boot step."""
+    try:
+        value = node.sdo.read(index, subindex)[1]
+    except SdoError as exc:
+        raise BootError(node, step, str(exc), exc.abort_code) from exc
+    if not isinstance(value, int):
+        raise BootError(node, step, f'0x{index:04X}:{subindex:02X} is not an integer ({value!r})')
+    return value
+
+
+def _sdo_write(node: NodeRuntime, step: str, index: int, subindex: int, value: int) -> None:
+    try:
+        node.sdo.write(index, subindex, value)
+    except SdoError as exc:
+        raise BootError(node, step, str(exc), exc.abort_code) from exc
+
+
 def _has(node: NodeRuntime, index: int, subindex: int = 0) -> bool:
     return od_variable(node.config.od, index, subindex) is not None
 
@@ -115,7 +133,7 @@ def check_identity(node: NodeRuntime) -> None:
     for index, subindex, name, want in checks:
         if want is None:
             continue
-        _type, got, _raw = _sdo_step(node, 'identity', lambda: node.sdo.read(index, subindex))  # type: ignore[misc]
+        got = _sdo_read(node, 'identity', index, subindex)
         if got != want:
             raise BootError(node, 'identity', f'{name} 0x{index:04X}:{subindex:02X} is 0x{got:08X}, '
                                               f'the configuration expects 0x{want:08X}')
@@ -193,9 +211,9 @@ def configure_pdos(node: NodeRuntime) -> None:
             if number in configured or not _has(node, index, 1):
                 continue
             step = f'disable unused {kind}{number}'
-            _type, cob_id, _raw = _sdo_step(node, step, lambda: node.sdo.read(index, 1))  # type: ignore[misc]
-            if not int(cob_id) & COB_ID_INVALID:
-                _sdo_step(node, step, lambda: node.sdo.write(index, 1, int(cob_id) | COB_ID_INVALID))
+            cob_id = int(_sdo_read(node, step, index, 1))
+            if not cob_id & COB_ID_INVALID:
+                _sdo_write(node, step, index, 1, cob_id | COB_ID_INVALID)
 
 
 def configure_heartbeat(node: NodeRuntime, master: MasterConfig) -> None:
@@ -263,7 +281,8 @@ def configure_guarding(node: NodeRuntime) -> None:
 def boot_node(node: NodeRuntime, master: MasterConfig, progress: Callable[[str], None]) -> None:
     """The whole boot of one node; raises BootError at the first failing step."""
     family = node.family
-    steps = (('boot-up', lambda: wait_for_bootup(node)),
+    steps: tuple[tuple[str, Callable[[], None]], ...] = (
+             ('boot-up', lambda: wait_for_bootup(node)),
              ('identity', lambda: check_identity(node)),
              *(_family_step(node, step) for step in family.boot_steps_before(node)),
              ('boot SDOs', lambda: run_boot_sdos(node)),

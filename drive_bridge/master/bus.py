@@ -48,7 +48,7 @@ class TappedBus(can.BusABC):
     def __init__(self, inner: can.BusABC, tap: FrameTap) -> None:
         self._inner = inner
         self._tap = tap
-        super().__init__(channel=getattr(inner, 'channel', None))  # no filters: the inner bus filters
+        super().__init__(channel=getattr(inner, 'channel', None) or '')  # no filters: the inner bus filters
         self.channel_info = f'tapped {inner.channel_info}'
 
     # periodic sends (e.g. the master heartbeat) use BusABC's thread task, which calls
@@ -78,7 +78,7 @@ class TappedBus(can.BusABC):
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         return self._inner.recv(timeout), True  # not used: recv is delegated whole
 
-    @property
+    @property  # type: ignore[misc]  # read-only here: the state is the inner bus's
     def state(self) -> can.BusState:
         return self._inner.state
 

@@ -8,6 +8,7 @@ Notifier (they may block on SDO).
 """
 from __future__ import annotations
 
+import functools
 import logging
 import threading
 import time
@@ -73,7 +74,7 @@ class Master:
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
         self._cycle_listeners: list[Callable[[int], None]] = []
         self.sync: SyncProducer | None = None
-        self._heartbeat_task = None
+        self._heartbeat_task: canopen.network.PeriodicMessageTask | None = None
         self._stop = threading.Event()
         self._supervisor: threading.Thread | None = None
         self._boot_threads: dict[str, threading.Thread] = {}
@@ -214,7 +215,7 @@ class Master:
     # -- supervision ---------------------------------------------------------------------------
     def _supervise(self) -> None:
         for node in self.nodes.values():
-            node.add_state_listener(lambda n=node: self._on_node_state(n))
+            node.add_state_listener(functools.partial(self._on_node_state, node))
         while not self._stop.wait(SUPERVISOR_PERIOD):
             now = time.monotonic()
             for node in self.nodes.values():

@@ -179,7 +179,8 @@ class NodeRuntime:
 
     def sdo_read(self, index: int, subindex: int = 0) -> int | float | str | bytes:
         """Blocking typed SDO read (type from the EDS); SdoError on failure."""
-        return self.sdo.read(index, subindex)[1]  # type: ignore[return-value]
+        value = self.sdo.read(index, subindex)[1]
+        return int(value) if isinstance(value, bool) else value
 
     def sdo_write(self, index: int, subindex: int, value: int | float) -> None:
         self.sdo.write(index, subindex, value)

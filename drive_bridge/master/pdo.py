@@ -54,7 +54,7 @@ class PdoField:
 
     def extract(self, payload: int, raw: bytes) -> int | float:
         if self.data_type in _FLOAT and self.offset % 8 == 0:
-            return _FLOAT[self.data_type].unpack_from(raw, self.offset // 8)[0]
+            return float(_FLOAT[self.data_type].unpack_from(raw, self.offset // 8)[0])
         value = (payload >> self.offset) & ((1 << self.bits) - 1)
         if self.data_type in dt.SIGNED_TYPES and value >> (self.bits - 1):
             value -= 1 << self.bits
@@ -129,7 +129,7 @@ class ProcessImage:
         """Called (in the Notifier thread) with the keys a received TPDO updated."""
         self._listeners = [*self._listeners, listener]
 
-    def on_tpdo(self, cob_id: int, data: bytes, timestamp: float) -> None:
+    def on_tpdo(self, cob_id: int, data: bytes | bytearray, timestamp: float) -> None:
         layout = self.rx_layouts.get(cob_id)
         if layout is None:
             return

@@ -8,8 +8,9 @@ a failure becomes an :class:`SdoError` naming node, object, abort code and reaso
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Union
+from typing import TypeVar
 
 import can
 import canopen
@@ -18,7 +19,8 @@ from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drive_bridge.errors import DriveBridgeError
 
-SdoPlain = Union[bool, int, float, str, bytes]
+SdoPlain = bool | int | float | str | bytes
+_T = TypeVar('_T')
 
 # CiA 301 basic data types the bridge reads and writes (codes as in SdoValue.msg)
 TYPE_NAMES: dict[int, str] = {
@@ -119,6 +121,8 @@ def decode(data_type: int, data: bytes, where: ObjectAddress) -> SdoPlain:
         value = var.decode_raw(bytes(data[:size] if size else data))
     except Exception as exc:  # canopen raises several types for malformed data
         raise SdoError(where, f'cannot decode {len(data)} byte(s) as {type_name(data_type)}: {exc}') from None
+    if isinstance(value, bytearray):
+        value = bytes(value)
     return bool(value) if data_type == dt.BOOLEAN else value
 
 
@@ -135,9 +139,9 @@ class SdoChannel:
         node.sdo.RESPONSE_TIMEOUT = timeout
 
     def _where(self, index: int, subindex: int) -> ObjectAddress:
-        return ObjectAddress(self.node.id, index, subindex)
+        return ObjectAddress(int(self.node.id or 0), index, subindex)
 
-    def _run(self, action, index: int, subindex: int, retry: bool = True):
+    def _run(self, action: Callable[[], _T], index: int, subindex: int, retry: bool = True) -> _T:
         where = self._where(index, subindex)
         attempts = 1 + max(0, self.retries) if retry else 1
         for attempt in range(1, attempts + 1):
@@ -160,7 +164,7 @@ class SdoChannel:
     def upload(self, index: int, subindex: int, retry: bool = True) -> bytes:
         """The object's bytes; ``retry=False`` for objects whose every access has an effect
         (a stream such as an ASCII channel, where a repeated request would skip data)."""
-        return self._run(lambda: self.node.sdo.upload(index, subindex), index, subindex, retry)
+        return bytes(self._run(lambda: self.node.sdo.upload(index, subindex), index, subindex, retry))
 
     def download(self, index: int, subindex: int, data: bytes, retry: bool = True) -> None:
         self._run(lambda: self.node.sdo.download(index, subindex, data), index, subindex, retry)
@@ -179,7 +183,7 @@ class SdoChannel:
                 raise SdoError(where, 'sub-index is not in the node\'s EDS; give the data type explicitly') from None
         elif subindex != 0:
             raise SdoError(where, 'object is a plain variable: its only sub-index is 0')
-        return int(entry.data_type)
+        return int(entry.data_type or 0)
 
     def read(self, index: int, subindex: int, data_type: int = AUTO) -> tuple[int, SdoPlain, bytes]:
         """(data type used, value, raw bytes) of one object."""

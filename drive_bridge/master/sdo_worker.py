@@ -84,8 +84,9 @@ class SdoWorker:
                 next_poll = time.monotonic() + self.poll_period
                 for key in polled:
                     try:
-                        _type, value, _raw = self.channel.read(*key)
+                        _type, polled_value, _raw = self.channel.read(*key)
                     except SdoError as exc:
                         self._report(exc)
                         continue
-                    self._sink(key, value, time.time())  # type: ignore[arg-type]
+                    if isinstance(polled_value, (int, float)):  # process data: numbers only
+                        self._sink(key, polled_value, time.time())

@@ -15,13 +15,13 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
+from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import JointError
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.parameters import BridgeParameters
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import TrajectoryError
-from drive_bridge.errors import DriveBridgeError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
 
@@ -122,9 +122,9 @@ class CommandTopics:
                 return
         commands: dict[str, dict[str, float | None]] = {}
         for i, joint in enumerate(msg.name):
-            field = self.master.axes[joint].command_field()
-            value = finite_or_none(getattr(msg, field), i) if field else None
-            if value is not None:
-                commands[joint] = {field: value}
+            wanted = self.master.axes[joint].command_field()
+            value = finite_or_none(getattr(msg, wanted), i) if wanted else None
+            if value is not None and wanted:
+                commands[joint] = {wanted: value}
         if commands:
             self._apply(topic, commands)

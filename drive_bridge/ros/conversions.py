@@ -8,11 +8,11 @@ from canopen.objectdictionary import datatypes as dt
 from drive_bridge_interfaces.msg import AxisState, Emcy, SdoValue
 from trajectory_msgs.msg import JointTrajectory
 
-from drive_bridge.joint import AxisSnapshot
 from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.joint import AxisSnapshot
 from drive_bridge.master.sdo import SdoPlain
-from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 
 FLOAT_TYPES = {SdoValue.REAL32, SdoValue.REAL64}
 STRING_TYPES = {SdoValue.VISIBLE_STRING, SdoValue.UNICODE_STRING}

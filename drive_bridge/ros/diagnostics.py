@@ -79,7 +79,8 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     else:
         status.level, status.message = OK, axis.state.label
     status.values = _values(
-        state=axis.state.label, drive_state=axis.drive_state.label, mode=axis.mode_name, requested_mode=axis.requested_mode,
+        state=axis.state.label, drive_state=axis.drive_state.label, mode=axis.mode_name,
+        requested_mode=axis.requested_mode,
         statusword=f'0x{axis.statusword:04X}', controlword=f'0x{axis.controlword:04X}',
         position='' if math.isnan(axis.position) else f'{axis.position:.6f}',
         velocity='' if math.isnan(axis.velocity) else f'{axis.velocity:.6f}',

@@ -38,11 +38,14 @@ class BusLifecycleNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        if self.bridge is None:
+            return TransitionCallbackReturn.FAILURE
         self.bridge.set_active(True)
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self.bridge.set_active(False)
+        if self.bridge is not None:
+            self.bridge.set_active(False)
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:

@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+
 from drive_bridge.errors import DriveBridgeError
 
 COMMAND_INTERFACES = ('position', 'velocity', 'effort')

@@ -11,19 +11,25 @@ The bridge reaches them only through CAN frames; tests may inspect their state.
 - ``python -m drive_bridge.sim.bench`` -- per-SYNC cost of one simulated drive
 
 Modules: slave (CiA 301 node), sdo (SDO server access), pdo (PDO engine), nmt (NMT
-states, heartbeat consumer), emcy (EMCY, 0x1001, 0x1003), store (typed OD values),
-timers (per-slave clock thread), faults (fault-injection switches), options
-(simulation options), axis402 (402 state machine), opmodes (modes of operation),
-ipbuffer (IP buffer), motion (pure motion model), drive402, akd (Kollmorgen AKD),
+states, heartbeat consumer), guarding (node guarding, life guarding), commobjects
+(CiA 301 write rules of the communication objects), emcy (EMCY, 0x1001, 0x1003),
+store (typed OD values), timers (per-slave clock thread), synccost (SYNC handling
+time), faults (fault-injection switches), options (simulation options), interfaces
+(what a mode uses of its axis, an axis of its drive), axis402 (402 state machine),
+opmodes (modes of operation), ipbuffer (IP buffer), motion (pure motion model),
+drive402, akd/ (Kollmorgen AKD package), ascii_channel (the AKD's ASCII channel),
 registry, bus.
+
+A family's simulator subclasses SimulatedSlave / SimDrive402 / Axis402 / PdoEngine and
+overrides the hooks their docstrings list; it never needs their private methods.
 """
+from drive_bridge.sim.akd import SimAkd  # registers the 'akd' family's simulator
 from drive_bridge.sim.axis402 import Axis402
 from drive_bridge.sim.bus import SimulatedBus
 from drive_bridge.sim.drive402 import SimDrive402
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS
 from drive_bridge.sim.registry import register_simulator, simulated_families, simulator_for
 from drive_bridge.sim.slave import SimulatedSlave
-from drive_bridge.sim.akd import SimAkd  # noqa: E402  (registers the 'akd' family's simulator)
 
 __all__ = ['AXIS_OPTIONS', 'Axis402', 'SLAVE_OPTIONS', 'SimAkd', 'SimDrive402', 'SimulatedBus', 'SimulatedSlave',
            'register_simulator', 'simulated_families', 'simulator_for']

@@ -25,24 +25,40 @@ Choices where CiA 402 leaves room (a master must cope with all of them on real d
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
-from drive_bridge.cia402.statemachine import (CW_ENABLE_OPERATION, CW_ENABLE_VOLTAGE, CW_FAULT_RESET, CW_HALT,
-                                              CW_QUICK_STOP, CW_SWITCH_ON, SW_INTERNAL_LIMIT, SW_REMOTE,
-                                              SW_TARGET_REACHED, SW_VOLTAGE_ENABLED, SW_WARNING, State,
-                                              statusword_bits_for)
+from drive_bridge.cia402.statemachine import (
+    CW_ENABLE_OPERATION,
+    CW_ENABLE_VOLTAGE,
+    CW_FAULT_RESET,
+    CW_HALT,
+    CW_QUICK_STOP,
+    CW_SWITCH_ON,
+    SW_INTERNAL_LIMIT,
+    SW_REMOTE,
+    SW_TARGET_REACHED,
+    SW_VOLTAGE_ENABLED,
+    SW_WARNING,
+    State,
+    statusword_bits_for,
+)
+from drive_bridge.sim.interfaces import AxisDrive
 from drive_bridge.sim.ipbuffer import IpBuffer
-from drive_bridge.sim.motion import (clamp, lag_follow, max_acceleration, motor_torque, stop_step, torque_drive,
-                                     wrap_int32)
+from drive_bridge.sim.motion import (
+    clamp,
+    lag_follow,
+    max_acceleration,
+    motor_torque,
+    stop_step,
+    torque_drive,
+    wrap_int32,
+)
 from drive_bridge.sim.opmodes import IMPLEMENTED_MODES, OpMode, make_mode
 from drive_bridge.sim.store import key
-
-if TYPE_CHECKING:
-    from drive_bridge.sim.drive402 import SimDrive402
 
 ABORT_VALUE_RANGE = 0x06090030
 EMCY_FOLLOWING_ERROR = 0x8611
@@ -76,9 +92,21 @@ class _Stop:
 
 
 class Axis402:
-    """The axis in ``slot`` of a simulated drive; its objects sit at index + 0x800 * slot."""
+    """The axis in ``slot`` of a simulated drive; its objects sit at index + 0x800 * slot.
 
-    def __init__(self, drive: SimDrive402, slot: int, options: dict[str, Any]) -> None:
+    Hooks a drive family's axis overrides (the defaults are the behaviour described above):
+
+    - :meth:`register_objects` -- the axis' dynamic objects (extend: call super() first);
+    - :meth:`motion_parameters` -- derived motion parameters (ramps, limits, windows);
+    - :meth:`load_boot_values` -- what the drive reads only at power-on / reset node;
+    - :meth:`supports`, :meth:`check_mode`, :meth:`set_mode`, :meth:`mode_for` -- which modes,
+      when a mode change takes effect, and the mode objects;
+    - :meth:`on_controlword` -- a written controlword;
+    - :meth:`on_transition` -- after every device state transition;
+    - :meth:`compute_statusword`, :meth:`param`, :meth:`reset`, :meth:`advance`.
+    """
+
+    def __init__(self, drive: AxisDrive, slot: int, options: dict[str, Any]) -> None:
         self.drive = drive
         self.slot = slot
         self._values = drive.store.values
@@ -95,7 +123,7 @@ class Axis402:
         self.dp, self.dv, self.dtorque = self.p, 0.0, 0.0
         self.state = State.NOT_READY_TO_SWITCH_ON
         self.controlword = 0
-        self.mode_impl: OpMode = self._make_mode(Mode.NO_MODE)
+        self.mode_impl: OpMode = self.mode_for(Mode.NO_MODE)
         self.fault_code = 0
         self.persistent_fault = False
         self.persistent_code = 0
@@ -109,7 +137,8 @@ class Axis402:
         self._cache: dict[str, Any] | None = None
         self._stepping = False
         self._step_shift = 0.0
-        self._register()
+        self.register_objects()
+        self.load_boot_values()
 
     # ---- objects -------------------------------------------------------------------
     def key(self, index: int, subindex: int = 0) -> int:
@@ -125,16 +154,17 @@ class Axis402:
             raise KeyError(f'axis {self.slot}: 0x{obj.for_axis(index, self.slot):04X}:{subindex:02X} missing')
         return value
 
-    def _register(self) -> None:
+    def register_objects(self) -> None:
+        """Hook: make the axis' objects dynamic (readers, validators, reactions)."""
         d = self.drive
 
         def reg(index: int, subindex: int = 0, **hooks: Any) -> None:
             if self.key(index, subindex) in d.store:
                 d.register_object(obj.for_axis(index, self.slot), subindex, **hooks)
 
-        reg(obj.CONTROLWORD, on_write=self._on_controlword)
+        reg(obj.CONTROLWORD, on_write=self.on_controlword)
         reg(obj.STATUSWORD, reader=self.compute_statusword)
-        reg(obj.MODES_OF_OPERATION, validator=self._check_mode, on_write=self._set_mode, early=True)
+        reg(obj.MODES_OF_OPERATION, validator=self.check_mode, on_write=self.set_mode, early=True)
         reg(obj.MODES_OF_OPERATION_DISPLAY, reader=lambda: self.mode_impl.code)
         reg(obj.ERROR_CODE, reader=lambda: self.fault_code)
         reg(obj.POSITION_DEMAND, reader=lambda: wrap_int32(self.dp))
@@ -149,11 +179,12 @@ class Axis402:
         reg(obj.INTERPOLATION_DATA_CONFIGURATION, 2, reader=lambda: self.ip.free)
         reg(obj.INTERPOLATION_DATA_CONFIGURATION, 6, validator=self.ip.check_clear, on_write=self.ip.clear)
         for index, subindex in _CACHED_PARAMETERS:
-            reg(index, subindex, on_write=self._invalidate)
+            reg(index, subindex, on_write=self.invalidate_parameters)
 
     # ---- limits and profile parameters ---------------------------------------------
-    def _parameters(self) -> dict[str, Any]:
-        """Derived motion parameters, cached until one of their objects is written."""
+    def motion_parameters(self) -> dict[str, Any]:
+        """Hook: derived motion parameters, cached until one of their objects is written
+        (:meth:`invalidate_parameters`)."""
         cache = self._cache
         if cache is None:
             p = self.param
@@ -183,31 +214,32 @@ class Axis402:
             }
         return cache
 
-    def _invalidate(self, value: Any = None) -> None:
+    def invalidate_parameters(self, value: Any = None) -> None:
+        """A parameter object changed: derive the motion parameters again when next needed."""
         self._cache = None
 
     def max_velocity(self) -> float:
-        return self._parameters()['max_velocity']
+        return self.motion_parameters()['max_velocity']
 
     def profile_velocity(self) -> float:
-        return self._parameters()['profile_velocity']
+        return self.motion_parameters()['profile_velocity']
 
     def profile_acceleration(self) -> float:
-        return self._parameters()['acceleration']
+        return self.motion_parameters()['acceleration']
 
     def profile_deceleration(self) -> float:
-        return self._parameters()['deceleration']
+        return self.motion_parameters()['deceleration']
 
     def torque_limit(self) -> float:
-        return self._parameters()['torque_limit']
+        return self.motion_parameters()['torque_limit']
 
     def interpolation_period(self) -> float:
         """0x60C2 (units * 10^index s); without a usable 0x60C2 the drive's cycle (0x1006 or measured)."""
-        period = self._parameters()['interpolation_period']
+        period = self.motion_parameters()['interpolation_period']
         return period if period is not None else self.drive.cycle_period()
 
     def _software_limits(self) -> tuple[float, float] | None:
-        return self._parameters()['software_limits']
+        return self.motion_parameters()['software_limits']
 
     def limit_target(self, target: float) -> float:
         """A position target inside the software limits 0x607D (bit 11 while clamped)."""
@@ -250,18 +282,24 @@ class Axis402:
             return True
         return bool(supported >> SUPPORT_BITS[Mode(code)] & 1)
 
-    def _check_mode(self, code: int) -> None:
+    def check_mode(self, code: int) -> None:
+        """Hook: validate a write of 0x6060 (abort 0x06090030 for a mode the axis lacks)."""
         if code != self.mode_impl.code and not self.supports(code):
             raise SdoAbortedError(ABORT_VALUE_RANGE)
 
-    def _make_mode(self, code: int) -> OpMode:
-        """A fresh mode object for ``code`` (device models may bring their own modes)."""
+    def mode_for(self, code: int) -> OpMode:
+        """Hook: a fresh mode object for ``code`` (device models may bring their own modes)."""
         return make_mode(code)
 
-    def _set_mode(self, code: int) -> None:
+    def set_mode(self, code: int) -> None:
+        """Hook: 0x6060 written (and accepted). Default: the mode changes at once."""
+        self.switch_mode(code)
+
+    def switch_mode(self, code: int) -> None:
+        """Make ``code`` the running mode now (0x6061 shows it)."""
         if code == self.mode_impl.code:
             return
-        self.mode_impl = self._make_mode(code)
+        self.mode_impl = self.mode_for(code)
         if self.state is State.OPERATION_ENABLED:
             self._enter_mode()
 
@@ -297,7 +335,8 @@ class Axis402:
         return limits is not None and not limits[0] < self.dp < limits[1] and not self.mode_impl.torque_controlled
 
     # ---- controlword and the state machine ---------------------------------------------
-    def _on_controlword(self, cw: int) -> None:
+    def on_controlword(self, cw: int) -> None:
+        """Hook: 0x6040 written: the device control commands and the mode's bits 4..6, 8."""
         prev, self.controlword = self.controlword, cw
         state = self.state
         if state is State.FAULT:
@@ -374,7 +413,7 @@ class Axis402:
         """Start a stop ramp from the demand, or from the motor's actual motion when the two
         have parted (beyond the following error window): brake the motor, not a set-point
         it never reached."""
-        window = self._parameters()['fe_window']
+        window = self.motion_parameters()['fe_window']
         if window != 0xFFFFFFFF and abs(self.dp - self.p) > window:
             self.dp, self.dv = self.p, self.v
         self._stop = stop
@@ -401,7 +440,7 @@ class Axis402:
 
     def _ramp_deceleration(self, kind: int) -> float:
         """1 slow-down ramp, 2 quick-stop ramp, 3/4 current/voltage limit (max deceleration)."""
-        parameters = self._parameters()
+        parameters = self.motion_parameters()
         if kind == 1:
             return parameters['deceleration']
         if kind == 2:
@@ -423,6 +462,10 @@ class Axis402:
         elif state not in ENERGISED:
             self._stop = None
             self.halted = False
+        self.on_transition(old, state)
+
+    def on_transition(self, old: State, new: State) -> None:
+        """Hook: the device state went from ``old`` to ``new`` (may be equal), reactions done."""
 
     # ---- faults -------------------------------------------------------------------------
     def fault(self, code: int, manufacturer: bytes = b'', persistent: bool = False, emit: bool = True) -> None:
@@ -458,10 +501,15 @@ class Axis402:
         self.halted = False
         self._stop = None
         self.fe_active, self._fe_time, self._limited = False, 0.0, False
-        self.mode_impl = self._make_mode(self._values.get(self.key(obj.MODES_OF_OPERATION), Mode.NO_MODE))
+        self.mode_impl = self.mode_for(self._values.get(self.key(obj.MODES_OF_OPERATION), Mode.NO_MODE))
         self.ip.reset()
         self.dp, self.dv, self.dtorque = self.p, self.v, 0.0
         self._cache = None
+        self.load_boot_values()
+
+    def load_boot_values(self) -> None:
+        """Hook: what the drive takes from its dictionary only at power-on and reset node
+        (the generic axis reads every parameter live)."""
 
     def boot(self) -> None:
         """Transition 1 (automatic); a persistent fault cause faults the axis again at once."""
@@ -493,10 +541,10 @@ class Axis402:
             d0 += self._step_shift
             torque_driven = mode.torque_controlled
         limits = self._software_limits()
-        if limits is not None and not torque_driven:
-            if self.dp <= limits[0] and self.dv <= 0 or self.dp >= limits[1] and self.dv >= 0:
-                self.dp, self.dv = clamp(self.dp, *limits), 0.0
-        v_max = self._parameters()['motor_speed']
+        if limits is not None and not torque_driven and (self.dp <= limits[0] and self.dv <= 0
+                                                         or self.dp >= limits[1] and self.dv >= 0):
+            self.dp, self.dv = clamp(self.dp, *limits), 0.0
+        v_max = self.motion_parameters()['motor_speed']
         if state in ENERGISED and torque_driven:
             limit = self.torque_limit()
             self.dtorque = clamp(self.dtorque, -limit, limit)
@@ -526,7 +574,7 @@ class Axis402:
                 or not self.mode_impl.position_controlled:
             self._fe_time = 0.0
             return
-        parameters = self._parameters()
+        parameters = self.motion_parameters()
         window = parameters['fe_window']
         if window == 0xFFFFFFFF or abs(self.dp - self.p) <= window:
             self._fe_time = 0.0
@@ -561,5 +609,5 @@ class Axis402:
 
     @property
     def statusword(self) -> int:
-        with self.drive._lock:
+        with self.drive.lock:
             return self.compute_statusword()

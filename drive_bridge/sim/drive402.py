@@ -2,7 +2,9 @@
 
 Adds to the CiA 301 slave the axes, the drive's reaction to a lost master heartbeat
 (EMCY 0x8130, then the fault reaction on every axis: the safety net when the bridge
-dies) and the drive-level fault injection used by the master's tests.
+dies), the same reaction to lost life guarding when the option
+``life_guarding_reaction`` is 'fault', and the drive-level fault injection used by
+the master's tests.
 """
 from __future__ import annotations
 
@@ -12,14 +14,18 @@ from typing import Any
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.model import NodeConfig
 from drive_bridge.sim.axis402 import Axis402
-from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, OptionSpec
+from drive_bridge.sim.options import AXIS_OPTIONS, DRIVE_OPTIONS, OptionSpec
 from drive_bridge.sim.slave import EMCY_HEARTBEAT, SimulatedSlave
 
 
 class SimDrive402(SimulatedSlave):
-    """A CiA 402 drive; ``axis(k)`` is the axis whose objects sit at index + 0x800*k."""
+    """A CiA 402 drive; ``axis(k)`` is the axis whose objects sit at index + 0x800*k.
 
-    OPTIONS: dict[str, OptionSpec] = {**SLAVE_OPTIONS, **AXIS_OPTIONS}
+    Hooks beyond the CiA 301 slave's: ``AXIS_CLASS`` (the family's axis), :meth:`communication_lost`
+    (the drive's reaction to a lost master) and :meth:`fault_cause_persists`.
+    """
+
+    OPTIONS: dict[str, OptionSpec] = {**DRIVE_OPTIONS, **AXIS_OPTIONS}
     AXIS_CLASS: type[Axis402] = Axis402  # device models may bring their own axis behaviour
 
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
@@ -45,11 +51,11 @@ class SimDrive402(SimulatedSlave):
             raise IndexError(f'node {self.name!r} has {len(self.axes)} axes, no slot {slot}') from None
 
     # ---- model hooks -------------------------------------------------------------------
-    def _reset_application(self) -> None:
+    def reset_application(self) -> None:
         for axis in self.axes:
             axis.reset()
 
-    def _on_boot(self) -> None:
+    def on_boot(self) -> None:
         for axis in self.axes:
             axis.boot()
 
@@ -60,14 +66,27 @@ class SimDrive402(SimulatedSlave):
             for axis in self.axes:
                 axis.on_sync()
 
-    def _on_heartbeat_lost(self, node: int) -> None:
-        super()._on_heartbeat_lost(node)
+    def on_heartbeat_lost(self, node: int) -> None:
+        self.communication_lost('heartbeat', bytes([node]))
+
+    def on_life_guarding_lost(self) -> None:
+        if self.options['life_guarding_reaction'] == 'fault':
+            self.communication_lost('guarding')
+        else:
+            super().on_life_guarding_lost()
+
+    def communication_lost(self, source: str, manufacturer: bytes = b'') -> None:
+        """Hook: the master is gone (``source`` 'heartbeat' or 'guarding'). Default: EMCY 0x8130,
+        then every axis' fault reaction and Fault (one EMCY for all axes)."""
+        self.emcy.error(EMCY_HEARTBEAT, source, manufacturer=manufacturer)
         for axis in self.axes:
             axis.fault(EMCY_HEARTBEAT, emit=False)
 
     def fault_cause_persists(self, axis: Axis402) -> bool:
-        """A fault reset fails while this holds (the master's heartbeat is still missing)."""
-        return self._consumer.is_lost()
+        """Hook: a fault reset fails while this holds (the master's heartbeat, or its guarding
+        when that faults the drive, is still missing)."""
+        guarding = self.options['life_guarding_reaction'] == 'fault' and self._guarding.lost
+        return self._consumer.is_lost() or guarding
 
     # ---- fault injection ---------------------------------------------------------------
     def inject_fault(self, code: int, axis: int = 0, manufacturer: bytes = b'', persistent: bool = False) -> None:

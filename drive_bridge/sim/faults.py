@@ -17,12 +17,14 @@ from dataclasses import dataclass, field
 class CommFaults:
     """Communication faults; all off by default."""
 
-    muted: bool = False  # a dead node: no SDO, PDO, heartbeat, EMCY, boot-up; ignores every frame
+    muted: bool = False  # a dead node: no SDO, PDO, heartbeat, guarding, EMCY, boot-up; ignores every frame
     sdo_delay: float = 0.0  # s each SDO response is held back (sent from the slave's timer thread)
     sdo_aborts: dict[tuple[int, int], int] = field(default_factory=dict)  # (index, sub) -> abort code
     heartbeat_stopped: bool = False  # heartbeat producer silent, everything else works
     boot_delay: float = 0.0  # s from power-on / reset to the boot-up frame
     drop_rpdos: bool = False  # received RPDOs ignored (the drive stops following the master)
+    guarding_silent: bool = False  # RTRs received (life guarding fed) but not answered
+    guarding_toggle_repeated: bool = False  # guarding replies repeat the last reply's toggle bit
 
 
 class CommFaultInjection:
@@ -33,7 +35,7 @@ class CommFaultInjection:
     faults: CommFaults
 
     def mute(self, on: bool = True) -> None:
-        """A dead node: no SDO answer, no PDO, heartbeat, EMCY; incoming frames ignored."""
+        """A dead node: no SDO answer, no PDO, heartbeat, guarding reply, EMCY; incoming frames ignored."""
         with self._lock:
             self.faults.muted = bool(on)
 
@@ -68,3 +70,15 @@ class CommFaultInjection:
         """Ignore received RPDOs (a drive that stopped following the master)."""
         with self._lock:
             self.faults.drop_rpdos = bool(on)
+
+    def stop_guarding_replies(self, on: bool = True) -> None:
+        """The node keeps running but no longer answers guarding RTRs (the master's node
+        guarding must time out); the RTRs still feed the node's own life guarding."""
+        with self._lock:
+            self.faults.guarding_silent = bool(on)
+
+    def repeat_guarding_toggle(self, on: bool = True) -> None:
+        """Guarding replies carry the same toggle bit as the last reply: a guarding error
+        the master must detect (CiA 301: the toggle alternates with every reply)."""
+        with self._lock:
+            self.faults.guarding_toggle_repeated = bool(on)

@@ -22,16 +22,11 @@ Choices CiA 402 leaves open:
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
-from drive_bridge.cia402.statemachine import (CW_OMS_4, CW_OMS_5, CW_OMS_6, SW_OMS_12, SW_OMS_13,
-                                              SW_TARGET_REACHED)
+from drive_bridge.cia402.statemachine import CW_OMS_4, CW_OMS_5, CW_OMS_6, SW_OMS_12, SW_OMS_13, SW_TARGET_REACHED
+from drive_bridge.sim.interfaces import ModeAxis
 from drive_bridge.sim.motion import Segment, clamp, position_step, ramp_value, stop_step, velocity_step
-
-if TYPE_CHECKING:
-    from drive_bridge.sim.axis402 import Axis402
 
 POSITION_WINDOW = 0x6067
 POSITION_WINDOW_TIME = 0x6068
@@ -71,25 +66,25 @@ class OpMode:
     position_controlled: bool = True  # following error (0x6065/0x6066) monitored
     torque_controlled: bool = False  # the plant is driven by the demand torque
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         """Operation Enabled reached in this mode, or mode switched while enabled."""
 
-    def on_controlword(self, ax: Axis402, prev: int, cw: int) -> None:
+    def on_controlword(self, ax: ModeAxis, prev: int, cw: int) -> None:
         """Controlword written while Operation Enabled (edges of bits 4..6)."""
 
-    def on_sync(self, ax: Axis402) -> None:
+    def on_sync(self, ax: ModeAxis) -> None:
         """SYNC: the model has stepped to now; latch new set-points."""
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         ax.dp, ax.dv = stop_step(ax.dp, ax.dv, ax.profile_deceleration(), dt)
 
-    def post_step(self, ax: Axis402, dt: float) -> None:
+    def post_step(self, ax: ModeAxis, dt: float) -> None:
         """After the plant moved: window timers for target reached."""
 
-    def resume(self, ax: Axis402) -> None:
+    def resume(self, ax: ModeAxis) -> None:
         """Halt released."""
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         return 0
 
 
@@ -109,12 +104,12 @@ class ProfilePosition(OpMode):
         self.arrived = True
         self.window = _Window()
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         self.target, self.pending, self.ack, self.arrived = None, None, False, True
         self.base = ax.dp
         self.window.reset()
 
-    def on_controlword(self, ax: Axis402, prev: int, cw: int) -> None:
+    def on_controlword(self, ax: ModeAxis, prev: int, cw: int) -> None:
         if _falling(prev, cw, CW_OMS_4):
             self.ack = False
         if not _rising(prev, cw, CW_OMS_4):
@@ -135,7 +130,7 @@ class ProfilePosition(OpMode):
         self.ack = True
         self.window.reset()
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         if self.target is None:
             super().step(ax, dt)
             return
@@ -148,12 +143,12 @@ class ProfilePosition(OpMode):
             self.target, self.pending, self.arrived = self.pending, None, False
             self.window.reset()
 
-    def post_step(self, ax: Axis402, dt: float) -> None:
+    def post_step(self, ax: ModeAxis, dt: float) -> None:
         inside = (self.target is None
                   or (self.arrived and abs(ax.p - self.target) <= ax.param(POSITION_WINDOW, default=0)))
         self.window.update(inside, dt)
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         bits = 0
         if self.ack or self.pending is not None:
             bits |= SW_OMS_12
@@ -174,21 +169,21 @@ class ProfileVelocity(OpMode):
     def __init__(self) -> None:
         self.window = _Window()
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         self.window.reset()
 
-    def target(self, ax: Axis402) -> float:
+    def target(self, ax: ModeAxis) -> float:
         limit = ax.max_velocity()
         return clamp(float(ax.param(obj.TARGET_VELOCITY)), -limit, limit)
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         ax.dp, ax.dv = velocity_step(ax.dp, ax.dv, self.target(ax), ax.profile_acceleration(),
                                      ax.profile_deceleration(), dt)
 
-    def post_step(self, ax: Axis402, dt: float) -> None:
+    def post_step(self, ax: ModeAxis, dt: float) -> None:
         self.window.update(abs(ax.v - self.target(ax)) <= ax.param(VELOCITY_WINDOW, default=0), dt)
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         bits = 0
         if self.window.reached(ax.param(VELOCITY_WINDOW_TIME, default=0) / 1000.0):
             bits |= SW_TARGET_REACHED
@@ -205,17 +200,17 @@ class ProfileTorque(OpMode):
     position_controlled = False
     torque_controlled = True
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         ax.dtorque = ax.torque
 
-    def target(self, ax: Axis402) -> float:
+    def target(self, ax: ModeAxis) -> float:
         limit = ax.torque_limit()
         return clamp(float(ax.param(obj.TARGET_TORQUE)), -limit, limit)
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         ax.dtorque = ramp_value(ax.dtorque, self.target(ax), ax.param(TORQUE_SLOPE, default=1e9), dt)
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         return SW_TARGET_REACHED if abs(ax.dtorque - self.target(ax)) < 0.5 else 0
 
 
@@ -239,20 +234,20 @@ class Homing(OpMode):
         self.direction = 1
         self.elapsed = 0.0
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         self.phase = 'idle'
 
-    def on_controlword(self, ax: Axis402, prev: int, cw: int) -> None:
+    def on_controlword(self, ax: ModeAxis, prev: int, cw: int) -> None:
         if _rising(prev, cw, CW_OMS_4):
             self._start(ax)
         elif _falling(prev, cw, CW_OMS_4) and self.phase in ('search', 'creep'):
             self.phase = 'interrupted'
 
-    def resume(self, ax: Axis402) -> None:
+    def resume(self, ax: ModeAxis) -> None:
         if self.phase in ('search', 'creep'):
             self.phase = 'interrupted'  # a halt ends the run; bit 4 must rise again
 
-    def _start(self, ax: Axis402) -> None:
+    def _start(self, ax: ModeAxis) -> None:
         method = ax.param(obj.HOMING_METHOD, default=0)
         self.elapsed = 0.0
         if method in HOME_HERE:
@@ -267,7 +262,7 @@ class Homing(OpMode):
         else:
             self.phase = 'error'
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         acc = max(1.0, float(ax.param(obj.HOMING_ACCELERATION, default=ax.profile_acceleration())))
         if self.phase in ('search', 'creep'):
             self.elapsed += dt
@@ -277,9 +272,8 @@ class Homing(OpMode):
             speed = min(ax.max_velocity(), float(ax.param(obj.HOMING_SPEEDS, 1, default=1000)))
             before = ax.dp
             ax.dp, ax.dv = velocity_step(ax.dp, ax.dv, self.direction * speed, acc, acc, dt)
-            if (ax.dp - ax.switch_position) * self.direction >= 0 > (before - ax.switch_position) * self.direction:
-                self.phase = 'creep'
-            elif before == ax.switch_position:
+            if ((ax.dp - ax.switch_position) * self.direction >= 0 > (before - ax.switch_position) * self.direction
+                    or before == ax.switch_position):
                 self.phase = 'creep'
         elif self.phase == 'creep':
             speed = min(ax.max_velocity(), float(ax.param(obj.HOMING_SPEEDS, 2, default=100)))
@@ -290,7 +284,7 @@ class Homing(OpMode):
         else:
             ax.dp, ax.dv = stop_step(ax.dp, ax.dv, acc, dt)
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         stopped = ax.standstill()
         if self.phase in ('search', 'creep'):
             return 0
@@ -313,26 +307,26 @@ class InterpolatedPosition(OpMode):
         self.active = False
         self.segment: Segment | None = None
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         self.active = bool(ax.controlword & CW_OMS_4)
         self.segment = None
 
-    def on_controlword(self, ax: Axis402, prev: int, cw: int) -> None:
+    def on_controlword(self, ax: ModeAxis, prev: int, cw: int) -> None:
         self.active = bool(cw & CW_OMS_4)
 
-    def on_sync(self, ax: Axis402) -> None:
+    def on_sync(self, ax: ModeAxis) -> None:
         if self.active:
             self._consume(ax)
 
-    def resume(self, ax: Axis402) -> None:
+    def resume(self, ax: ModeAxis) -> None:
         self.segment = None
 
-    def _consume(self, ax: Axis402) -> None:
+    def _consume(self, ax: ModeAxis) -> None:
         if ax.ip:
             point = ax.limit_target(float(ax.ip.pop()))
             self.segment = Segment(ax.dp, point, ax.interpolation_period())
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         if self.active and not ax.sync_driven and (self.segment is None or self.segment.done):
             self._consume(ax)  # no SYNC: the drive's own clock paces the buffer
         if self.segment is None:
@@ -341,7 +335,7 @@ class InterpolatedPosition(OpMode):
         ax.dp = self.segment.advance(dt)
         ax.dv = self.segment.slope
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         bits = SW_OMS_12 if self.active else 0
         if ax.fe_active:
             bits |= SW_OMS_13
@@ -356,7 +350,7 @@ class CyclicSynchronous(OpMode):
     Bit 12: the drive follows the command value (not while halted); bit 13 (CSP):
     following error."""
 
-    code = Mode.CYCLIC_SYNC_POSITION
+    code: int = Mode.CYCLIC_SYNC_POSITION
 
     def __init__(self, code: int) -> None:
         self.code = code
@@ -364,15 +358,15 @@ class CyclicSynchronous(OpMode):
         self.torque_controlled = code == Mode.CYCLIC_SYNC_TORQUE
         self.segment: Segment | None = None
 
-    def enter(self, ax: Axis402) -> None:
+    def enter(self, ax: ModeAxis) -> None:
         self.segment = None
         if self.torque_controlled:
             ax.dtorque = ax.torque
 
-    def resume(self, ax: Axis402) -> None:
+    def resume(self, ax: ModeAxis) -> None:
         self.segment = None
 
-    def on_sync(self, ax: Axis402) -> None:
+    def on_sync(self, ax: ModeAxis) -> None:
         if ax.halted:
             return
         period = ax.interpolation_period()
@@ -388,7 +382,7 @@ class CyclicSynchronous(OpMode):
             target = float(ax.param(obj.TARGET_TORQUE)) + ax.param(obj.TORQUE_OFFSET, default=0)
             self.segment = Segment(ax.dtorque, clamp(target, -limit, limit), period)
 
-    def step(self, ax: Axis402, dt: float) -> None:
+    def step(self, ax: ModeAxis, dt: float) -> None:
         segment = self.segment
         if segment is None:
             if self.torque_controlled:
@@ -405,7 +399,7 @@ class CyclicSynchronous(OpMode):
         else:
             ax.dtorque = segment.advance(dt)
 
-    def status_bits(self, ax: Axis402) -> int:
+    def status_bits(self, ax: ModeAxis) -> int:
         bits = 0 if ax.halted else SW_OMS_12
         if ax.fe_active and self.position_controlled:
             bits |= SW_OMS_13

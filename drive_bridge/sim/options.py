@@ -5,22 +5,25 @@ option named instead of being ignored.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
+
+Value = float | int | bool | str
 
 
 @dataclass(frozen=True)
 class OptionSpec:
-    """One option: type, default, lower bound and meaning. ``per_axis`` options take a
-    scalar (all axes) or a list with one value per axis."""
+    """One option: type (float, int, bool or str), default, bounds or choices, and meaning.
+    ``per_axis`` options take a scalar (all axes) or a list with one value per axis."""
 
     name: str
     kind: type
-    default: float | int
+    default: Value
     doc: str
     minimum: float | None = None
     maximum: float | None = None
     per_axis: bool = False
+    choices: tuple[str, ...] = ()  # the values a str option takes
 
 
 def _spec_table(*specs: OptionSpec) -> dict[str, OptionSpec]:
@@ -31,7 +34,24 @@ SLAVE_OPTIONS: dict[str, OptionSpec] = _spec_table(
     OptionSpec('boot_delay', float, 0.0, 's from power-on or NMT reset to the boot-up frame', 0.0, 60.0),
     OptionSpec('serial_number', int, 0, 'identity 0x1018:4', 0, 0xFFFFFFFF),
     OptionSpec('sdo_delay', float, 0.0, 's every SDO response is held back (as set_sdo_delay)', 0.0, 60.0),
+    OptionSpec('heartbeat', bool, True,
+               'false: a node without heartbeat objects (0x1016/0x1017 absent, SDO aborts 0x06020000, no '
+               'heartbeat frames), supervised by node guarding only'),
+    OptionSpec('life_guarding_reaction', str, 'emcy',
+               "what the node does when the master's guarding RTRs stop for the life time 0x100C x 0x100D: "
+               "'emcy' (EMCY 0x8130 life guard error, error register bit 4) or 'none'",
+               choices=('emcy', 'none')),
 )
+
+# A CiA 402 drive can also stop its axes, as for a lost master heartbeat.
+DRIVE_OPTIONS: dict[str, OptionSpec] = {
+    **SLAVE_OPTIONS,
+    'life_guarding_reaction': replace(
+        SLAVE_OPTIONS['life_guarding_reaction'], choices=('emcy', 'none', 'fault'),
+        doc="what the drive does when the master's guarding RTRs stop for the life time 0x100C x 0x100D: "
+            "'emcy' (EMCY 0x8130 life guard error, error register bit 4), 'none', or 'fault' (the EMCY, then "
+            "every axis' fault reaction and Fault, as for a lost master heartbeat)"),
+}
 
 AXIS_OPTIONS: dict[str, OptionSpec] = _spec_table(
     OptionSpec('lag_time_constant', float, 0.002,
@@ -50,8 +70,16 @@ AXIS_OPTIONS: dict[str, OptionSpec] = _spec_table(
 )
 
 
-def _check(node: str, spec: OptionSpec, value: Any) -> float | int:
+def _check(node: str, spec: OptionSpec, value: Any) -> Value:
     where = f'simulation option {spec.name!r} of node {node!r}'
+    if spec.kind is bool:
+        if not isinstance(value, bool):
+            raise ValueError(f'{where}: expected true or false, got {value!r}')
+        return value
+    if spec.kind is str:
+        if value not in spec.choices:
+            raise ValueError(f'{where}: expected one of {", ".join(map(repr, spec.choices))}, got {value!r}')
+        return str(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f'{where}: expected a number, got {value!r}')
     if spec.kind is int:
@@ -97,4 +125,4 @@ def resolve_options(specs: Mapping[str, OptionSpec], given: Mapping[str, Any] | 
 
 def describe(specs: Mapping[str, OptionSpec]) -> str:
     """One line per option, for docs and error messages."""
-    return '\n'.join(f'{s.name} (default {s.default}): {s.doc}' for s in specs.values())
+    return '\n'.join(f'{s.name} (default {s.default!r}): {s.doc}' for s in specs.values())

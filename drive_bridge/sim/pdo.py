@@ -34,7 +34,7 @@ import functools
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from canopen.objectdictionary import ODVariable, datatypes as dt
@@ -60,7 +60,7 @@ ABORT_VALUE_TOO_HIGH = 0x06090031
 
 EMCY_PDO_LENGTH = 0x8210
 
-_FORMATS = {
+_FORMATS: dict[int | None, str] = {  # ODVariable.data_type may be None
     dt.BOOLEAN: '?', dt.INTEGER8: 'b', dt.UNSIGNED8: 'B', dt.INTEGER16: 'h', dt.UNSIGNED16: 'H',
     dt.INTEGER32: 'i', dt.UNSIGNED32: 'I', dt.INTEGER64: 'q', dt.UNSIGNED64: 'Q',
     dt.REAL32: 'f', dt.REAL64: 'd',
@@ -122,7 +122,11 @@ class Pdo:
 
 
 class PdoEngine:
-    """All PDOs of one slave. Every method is called with the slave's lock held."""
+    """All PDOs of one slave. Every method is called with the slave's lock held.
+
+    Hooks a device model's PDO rules override: :meth:`validate` (parameter writes),
+    :meth:`mapping_locked`, :meth:`due_rpdos`, :meth:`value_getter`, :meth:`has_changed`.
+    """
 
     def __init__(self, store: ObjectStore, *, lock: threading.RLock, timers: TimerThread,
                  send: Callable[[int, bytes], None], write_many: Callable[[list[tuple[int, Any]]], None],
@@ -177,7 +181,7 @@ class PdoEngine:
         pdo = self._by_index[index]
         values = self._store.values
         cob = values[key(pdo.comm, 1)]
-        valid = self._locked(pdo, cob)
+        valid = self.mapping_locked(pdo, cob)
         if index == pdo.comm:
             if subindex == 1:
                 if value & COB_EXTENDED:
@@ -193,9 +197,8 @@ class PdoEngine:
             elif subindex == 3 and pdo.transmit:
                 if valid and value != values[key(pdo.comm, 3)]:
                     raise _abort(ABORT_INVALID_VALUE)
-            elif subindex == 6 and pdo.transmit:
-                if value > 240 or (valid and value != values[key(pdo.comm, 6)]):
-                    raise _abort(ABORT_INVALID_VALUE)
+            elif subindex == 6 and pdo.transmit and (value > 240 or (valid and value != values[key(pdo.comm, 6)])):
+                raise _abort(ABORT_INVALID_VALUE)
             return
         # mapping parameter
         if valid:
@@ -219,9 +222,9 @@ class PdoEngine:
         if value != 0:
             self._check_entry(pdo, value)
 
-    def _locked(self, pdo: Pdo, cob: int) -> bool:
-        """Whether the PDO's COB-ID, mapping, inhibit time and SYNC start value are locked
-        against changes (CiA 301: while the PDO is valid). Device models may relax it."""
+    def mapping_locked(self, pdo: Pdo, cob: int) -> bool:
+        """Hook: whether the PDO's COB-ID, mapping, inhibit time and SYNC start value are locked
+        against changes (CiA 301: while the PDO is valid, ``cob`` its 0x14xx/0x18xx:1)."""
         return not cob & COB_INVALID
 
     def _check_entry(self, pdo: Pdo, entry: int) -> ODVariable:
@@ -268,7 +271,7 @@ class PdoEngine:
                     raise KeyError(k)
                 fmt += _FORMATS[var.data_type]
                 keys.append(k)
-                getters.append(self._getter(k, var))
+                getters.append(self.value_getter(k, var))
         except KeyError:  # a mapping the EDS itself got wrong: the PDO cannot exist
             fmt, keys, getters = '<', [], []
             cob |= COB_INVALID
@@ -281,7 +284,8 @@ class PdoEngine:
         pdo.last_data = None
         pdo.cancel_timers()
 
-    def _getter(self, k: int, var: ODVariable) -> Callable[[], Any]:
+    def value_getter(self, k: int, var: ODVariable) -> Callable[[], Any]:
+        """Hook: how a TPDO reads mapped object ``k`` (default: as SDO reads it)."""
         reader = self._store.readers.get(k)
         if reader is not None:
             return reader
@@ -334,14 +338,19 @@ class PdoEngine:
                 self.poll_events()
 
     def apply_latched(self) -> None:
-        """At SYNC: the RPDOs received since the previous SYNC, all stored before any reacts."""
+        """At SYNC: the latched data of the RPDOs due, all stored before any reacts."""
         items: list[tuple[int, Any]] = []
-        for pdo in self._rx_by_cob.values():
+        for pdo in self.due_rpdos():
             if pdo.latched is not None:
                 items += self._decode(pdo, pdo.latched)
                 pdo.latched = None
         if items:
             self._write_many(items)
+
+    def due_rpdos(self) -> Iterable[Pdo]:
+        """Hook: at SYNC, the RPDOs whose latched data apply now, in the order they are stored.
+        Default: every RPDO (types 0..240 alike: at the next SYNC)."""
+        return self._rx_by_cob.values()
 
     @staticmethod
     def _decode(pdo: Pdo, data: bytes | bytearray) -> list[tuple[int, Any]]:
@@ -396,7 +405,7 @@ class PdoEngine:
 
     def _send_event(self, pdo: Pdo, now: float, force: bool) -> None:
         data = self._pack(pdo)
-        if not force and not self._has_changed(pdo, data):
+        if not force and not self.has_changed(pdo, data):
             return
         if pdo.inhibit and pdo.last_data is not None and now < pdo.last_time + pdo.inhibit:
             if pdo.deferred is None:
@@ -405,9 +414,9 @@ class PdoEngine:
             return
         self._emit(pdo, data, now)
 
-    def _has_changed(self, pdo: Pdo, data: bytes) -> bool:
-        """Whether an event-driven TPDO's data changed enough to be sent (device models may
-        filter, e.g. by change masks)."""
+    def has_changed(self, pdo: Pdo, data: bytes) -> bool:
+        """Hook: whether an event-driven TPDO's data changed enough to be sent (device models
+        may filter, e.g. by change masks)."""
         return data != pdo.last_data
 
     def _on_deferred(self, pdo: Pdo) -> None:

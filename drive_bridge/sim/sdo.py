@@ -91,3 +91,9 @@ def decode_checked(store: ObjectStore, index: int, subindex: int, data: bytes, c
         if var.min is not None and value < var.min:
             raise SdoAbortedError(ABORT_TOO_LOW)
     return value
+
+
+def expedited_download_of(request: bytes, index: int, subindex: int) -> bool:
+    """Whether ``request`` is an expedited download initiate for (index, subindex)."""
+    return (len(request) == 8 and request[0] & 0xE2 == 0x22
+            and int.from_bytes(request[1:3], 'little') == index and request[3] == subindex)

@@ -49,6 +49,7 @@ class ObjectStore:
     def __init__(self, od: ObjectDictionary) -> None:
         self.od = od
         self.variables: dict[int, ODVariable] = {}
+        self._indices: set[int] = set(od)  # objects that exist (the EDS's, plus added, less removed)
         for index in od:
             entry = od[index]
             if isinstance(entry, ODVariable):
@@ -77,9 +78,27 @@ class ObjectStore:
         var = self.variables.get(key(index, subindex))
         if var is not None:
             return var
-        if index in self.od:
+        if index in self._indices:
             raise SdoAbortedError(ABORT_NO_SUBINDEX)
         raise SdoAbortedError(ABORT_NOT_IN_OD)
+
+    def add(self, var: ODVariable) -> None:
+        """An entry (``var.index``, ``var.subindex``) the device has although its EDS lacks it.
+
+        An entry the EDS has is kept: the device's own description wins."""
+        k = key(var.index, var.subindex)
+        if k in self.variables:
+            return
+        self._indices.add(var.index)
+        self.variables[k] = var
+        self.defaults[k] = self.values[k] = _initial(var)
+
+    def remove(self, index: int) -> None:
+        """An object of the EDS the simulated device does not have (SDO aborts 0x06020000)."""
+        self._indices.discard(index)
+        for k in list(self.keys_between(index, index)):
+            for table in (self.variables, self.defaults, self.values, self.readers):
+                table.pop(k, None)
 
     def get(self, k: int) -> Any:
         reader = self.readers.get(k)

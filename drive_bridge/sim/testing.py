@@ -18,8 +18,8 @@ from typing import Any
 import can
 import canopen
 
+from drive_bridge.families import DATA_DIR
 from drive_bridge.model import NodeConfig
-from drive_bridge.families.base import DATA_DIR
 from drive_bridge.sim.registry import simulator_for
 from drive_bridge.sim.slave import NOTIFIER_CYCLE, SimulatedSlave
 
@@ -55,6 +55,8 @@ class FrameLog:
     def __init__(self, network: canopen.Network) -> None:
         self._frames: list[Frame] = []
         self._lock = threading.Lock()
+        if network.notifier is None:
+            raise RuntimeError('FrameLog: connect the Network first')
         network.notifier.add_listener(self._on_message)
 
     def _on_message(self, msg: can.Message) -> None:
