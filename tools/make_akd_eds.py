@@ -3,7 +3,7 @@
 Kollmorgen publishes no AKD EDS that we could find (shared/realdata/SOURCES.md), so this
 file is built from the AKD CANopen manual (rev. F, 903-200004-03) as summarised in
 shared/drives/akd.md §8: the communication area, the profile area and the manufacturer
-objects that the bridge, the simulator (drive_bridge/sim/akd.py) or the manual's worked
+objects that the bridge, the simulator (drive_bridge/sim/akd/) or the manual's worked
 examples touch. Everything else of the manual's 0x2000-0x5FFF list (control-loop gains,
 motor data, Wake & Shake, ...) is left out: the simulator has nothing behind it.
 

@@ -15,13 +15,13 @@ import concurrent.futures
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-import rclpy.task
 from drive_bridge_interfaces.srv import ParamRead, ParamSave, ParamWrite
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
 from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
 from drive_bridge.master.master import Master
+from drive_bridge.ros.pool import in_pool
 
 T = TypeVar('T')
 
@@ -50,18 +50,7 @@ class ParameterServices:
 
     async def _in_pool(self, work: Callable[[], T]) -> T:
         """Run blocking work in the pool and await it without blocking the executor."""
-        future: rclpy.task.Future = rclpy.task.Future()
-
-        def run() -> None:
-            try:
-                future.set_result(work())
-            except BaseException as exc:  # delivered to the awaiting handler
-                future.set_exception(exc)
-            executor = self.node.executor
-            if executor is not None:
-                executor.wake()
-        self.pool.submit(run)
-        return await future
+        return await in_pool(self.node, self.pool, work)
 
     # -- targets --------------------------------------------------------------------------------
     def _target(self, joint: str, node_id: int) -> tuple[ParameterAccess, str]:

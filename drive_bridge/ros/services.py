@@ -11,7 +11,6 @@ import concurrent.futures
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-import rclpy.task
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import AxisCommand, NmtCommand, SdoRead, SdoWrite, SetMode
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -21,6 +20,7 @@ from drive_bridge.joint import JointDriver, JointError
 from drive_bridge.master.master import NMT_COMMANDS, Master
 from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
+from drive_bridge.ros.pool import in_pool
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 T = TypeVar('T')
@@ -52,18 +52,7 @@ class BridgeServices:
 
     async def _in_pool(self, work: Callable[[], T]) -> T:
         """Run blocking work in the pool and await it without blocking the executor."""
-        future: rclpy.task.Future = rclpy.task.Future()
-
-        def run() -> None:
-            try:
-                future.set_result(work())
-            except BaseException as exc:  # delivered to the awaiting handler
-                future.set_exception(exc)
-            executor = self.node.executor
-            if executor is not None:
-                executor.wake()
-        self.pool.submit(run)
-        return await future
+        return await in_pool(self.node, self.pool, work)
 
     # -- SDO and NMT -------------------------------------------------------------------------
     def _resolve_type(self, node_id: int, index: int, subindex: int, data_type: int) -> int:
