@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -18,10 +19,17 @@ import yaml
 from akdtools import Sniffer
 from bustools import REPO, eventually, running, unique_channel
 from drive_bridge.config import parse_bus_config
-from drive_bridge.families.akd_parameters import AKD_PARAMETERS, AkdParameters, parse_reply
+from drive_bridge.families.akd_parameters import (
+    AKD_PARAMETERS,
+    ASCII_TABLE,
+    AkdParameters,
+    parse_reply,
+    read_parameter_table,
+)
 from drive_bridge.families.parameters import ParameterError
 from drive_bridge.master.master import Master
 from drive_bridge.sim.ascii_channel import PARAMETERS as SIM_PARAMETERS
+from drive_bridge.sim.store import key
 
 EXAMPLE = REPO / 'config' / 'akd_pvt_example.yaml'
 NODE = 1
@@ -206,11 +214,95 @@ def test_parse_reply_strips_prompt_and_terminator() -> None:
     assert b''.join(port.sent) == b'IL.LIMITN\r\n' and all(len(c) <= 4 for c in port.sent)
 
 
-def test_the_bridge_and_the_simulator_list_the_same_parameters() -> None:
-    """Two transcriptions of akd.md §8.3 (the family's and the simulated drive's) agree."""
-    assert set(AKD_PARAMETERS) == set(SIM_PARAMETERS)
+def _table_lines() -> list[str]:
+    lines = ASCII_TABLE.read_text(encoding='utf-8').splitlines()
+    return [line for line in lines if line.strip() and not line.lstrip().startswith('#')]
+
+
+def test_every_row_of_the_shipped_table_parses_in_the_bridge_and_the_simulator(bench: Bench) -> None:
+    """One table (families/data/akd_ascii_parameters.txt), read by both: no line is lost, each
+    row becomes an object of the simulated drive, and every readable one is read over the bus
+    (the simulator answering, the bridge parsing its answer)."""
+    lines = _table_lines()
+    assert len(lines) == len(AKD_PARAMETERS) == len(SIM_PARAMETERS) == 316
+    assert [line.split()[0] for line in lines] == list(AKD_PARAMETERS) == list(SIM_PARAMETERS)
+    access = bench.access
     for name, spec in AKD_PARAMETERS.items():
         sim = SIM_PARAMETERS[name]
-        ours = (spec.kind, spec.scale, spec.access, spec.choices)
-        theirs = (sim.kind, sim.scale, sim.access, sim.choices)
-        assert ours == theirs, name
+        assert (sim.kind, sim.scale, sim.access, sim.choices) == (spec.kind, spec.scale, spec.access, spec.choices)
+        if spec.index and spec.kind != 'cmd':
+            assert sim.keys[0] == key(spec.index, spec.subindex), name
+            assert all(k in bench.drive.store for k in sim.keys), f'{name}: not in the simulated dictionary'
+        else:
+            assert sim.keys == (), name
+        if spec.access in ('wo', 'cmd'):
+            continue
+        value = access.read(name)
+        if spec.numeric:
+            raw = bench.drive.value(spec.index, spec.subindex) if len(sim.keys) == 1 else None
+            assert value.value is not None, f'{name}: {value.value_text!r}'
+            assert raw is None or value.value == pytest.approx(raw / max(1, spec.scale)), name
+        assert value.unit == (sim.unit or spec.unit), name  # the unit the simulated drive prints wins
+
+
+# (name, object, type, scaling, access, the bridge's unit, the simulator's unit, volatile/restart/choices)
+# as akd.md prints them: §8.3 (blank access = rw, INTEGER = i32), §1.2 for the bit rates
+_MANUAL = [
+    ('DRV.ACC', (0x3501, 0), 'i32', 1, 'rw', 'acceleration units', 'counts/s^2', ''),
+    ('VL.FB', (0x3618, 0), 'i32', 1, 'ro', 'velocity units', 'counts/s', ''),
+    ('CAP0.PLFB', (0x20A6, 0), 'i32', -1, 'ro', 'position units', 'counts', ''),
+    ('MOTOR.ICONT', (0x358E, 0), 'u32', 1000, 'rw', 'A', 'A', ''),
+    ('IL.FRICTION', (0x3422, 0), 'u32', 1000, 'rw', 'A', 'A', ''),  # access printed blank
+    ('DRV.HWENMODE', (0x3506, 0), 'i32', 0, 'rw', '', '', ''),  # "INTEGER", access blank
+    ('VL.ARZQ4', (0x3406, 16), 'u32', 1000, 'rw', '', '', ''),  # sub-index printed "D-10" (hex)
+    ('WS.IMAX', (0x3494, 1), 'i16', 1000, 'rw', 'A', 'A', ''),
+    ('MOTOR.BRAKERLS', (0x3450, 0), 'u8', 0, 'wo', '', '', ''),
+    ('MOTOR.R', (0x3456, 0), 'u32', 1000, 'rw', 'Ohm', 'Ohm', ''),
+    ('FB1.ORIGIN', (0x3656, 0), 'u64', 1, 'rw', 'position units', 'counts', ''),
+    ('AOUT.VALUEU', (0x3470, 3), 'i16', 1000, 'rw', 'V', 'V', 'v'),
+    ('DRV.NVSAVE', (0x35EB, 0), 'cmd', 0, 'cmd', '', '', ''),
+    ('FBUS.PARAM01', (0x36E5, 0), 'u32', 0, 'rw', '', '', 'r 0/125/250/500/1000'),
+    ('FBUS.PARAM04', (0x36E8, 0), 'u32', 0, 'rw', '', '', '0/1'),
+    ('VL.OBSBW', (0x51BA, 0), 'u32', 0, 'rw', 'Hz', 'Hz', ''),
+    ('FAULT702.ACTION', (0x525D, 0), 'u32', 0, 'rw', '', '', ''),
+]
+
+
+@pytest.mark.parametrize('name, obj, kind, scale, acc, unit, sim_unit, flags', _MANUAL, ids=[r[0] for r in _MANUAL])
+def test_rows_as_the_manual_prints_them(name: str, obj: tuple[int, int], kind: str, scale: int, acc: str, unit: str,
+                                        sim_unit: str, flags: str) -> None:
+    spec, sim = AKD_PARAMETERS[name], SIM_PARAMETERS[name]
+    choices = next((tuple(int(c) for c in f.split('/')) for f in flags.split() if '/' in f), ())
+    assert ((spec.index, spec.subindex), spec.kind, spec.scale, spec.access, spec.unit) == (obj, kind, scale, acc, unit)
+    assert (spec.volatile, spec.restart, spec.choices) == ('v' in flags.split(), 'r' in flags.split(), choices)
+    assert (sim.kind, sim.scale, sim.access, sim.unit, sim.choices) == (kind, scale, acc, sim_unit, choices)
+    assert spec.save_needed == (acc == 'rw' and 'v' not in flags.split())
+
+
+def test_the_64_bit_io_parameters_are_split_over_low_and_high_sub_indices() -> None:
+    # akd.md §8.3: 0x3474 subs 1-7 / 8-E (DIN1-7.PARAM), 0x3475 subs 1-2 / 3-4 (DOUT1-2.PARAM)
+    assert SIM_PARAMETERS['DIN1.PARAM'].keys == (key(0x3474, 1), key(0x3474, 8))
+    assert SIM_PARAMETERS['DIN7.PARAM'].keys == (key(0x3474, 7), key(0x3474, 0xE))
+    assert SIM_PARAMETERS['DOUT2.PARAM'].keys == (key(0x3475, 2), key(0x3475, 4))
+    assert AKD_PARAMETERS['DIN7.PARAM'].limits == (0, 2 ** 64 - 1)
+
+
+@pytest.mark.parametrize('line, problem', [
+    ('DRV.ACC 3501:0 i33 1 rw acc', "type 'i33' is not one of"),
+    ('DRV.ACC 3501:0 i32 10 rw acc', "scaling '10' is not one of -, 1, 1000, var"),
+    ('DRV.ACC 3501:0 i32 1 RW acc', "access 'RW' is not one of"),
+    ('DRV.ACC 0x3501 i32 1 rw acc', "object '0x3501' is not INDEX:SUB"),
+    ('DRV.ACC 3501:0 i32 1 rw acc x', "flag 'x' is not v, r or choices=a/b/c"),
+    ('DRV.ACC 3501:0 i32 1 rw acc choices=1/two', "flag 'choices=1/two'"),
+    ('DRV.ACC 3501:0 i32 1 rw', 'has 5 of the 6 columns'),
+    ('VL.FB 3618:0 i32 1 ro vel', 'VL.FB is listed twice'),
+])
+def test_a_bad_table_line_is_refused_with_its_place(tmp_path: Path, line: str, problem: str) -> None:
+    table = tmp_path / 'table.txt'
+    table.write_text('# a header\n\nVL.FB 3618:0 i32 1 ro vel\n' + line + '\n', encoding='utf-8')
+    with pytest.raises(ValueError, match='^table.txt:4: ') as refused:
+        read_parameter_table({}, table)
+    assert problem in str(refused.value), refused.value
+    table.write_text('# a header\nVL.FB 3618:0 i32 1 ro vel\n  # an indented comment\nDRV.FAULTS 0:0 text - ro -\n')
+    rows = read_parameter_table({'vel': 'rev/s'}, table)  # each reader names the user units its own way
+    assert list(rows) == ['VL.FB', 'DRV.FAULTS'] and rows['VL.FB'].unit == 'rev/s' and rows['DRV.FAULTS'].unit == ''
