@@ -154,6 +154,9 @@ class AxisConfig:
     scaling: AxisScaling = field(default_factory=AxisScaling)
     limits: AxisLimits = field(default_factory=AxisLimits)
     homing: HomingConfig = field(default_factory=HomingConfig)
+    # the drive family's own per-axis settings (the axis key `drive`), as its
+    # parse_axis_options validated them
+    drive: Mapping[str, Any] = field(default_factory=dict)
     where: str = ''
 
 

@@ -6,6 +6,7 @@ EDS); :func:`check_axis_objects` runs once the OD is loaded.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -140,9 +141,22 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
                       joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
-                      where=f'{file}: {loc.path}', **modes)
+                      drive=_drive_options(sec, family), where=f'{file}: {loc.path}', **modes)
     slot_loc = sec.loc('slot') if 'slot' in sec else loc
     return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None
+
+
+def _drive_options(sec: Section, family: DriveFamily) -> Mapping[str, Any]:
+    """The axis' `drive` settings, validated by its family (errors located at each key)."""
+    drive = sec.section('drive', 'a mapping of the drive family\'s own axis settings')
+    given = dict(drive.data) if drive is not None else {}
+    values, problems = family.parse_axis_options(given)
+    for key, message in problems:
+        if drive is not None and key in given:
+            sec.issues.error(drive.loc(key), message)
+        else:  # a required key that is missing: at the section (or the axis) that lacks it
+            sec.issues.error(sec.loc('drive') if drive is not None else sec.loc('joint'), f'drive.{key}: {message}')
+    return values
 
 
 def _channel_names(node: Section) -> list[tuple[Loc, str | None]] | None:
@@ -200,7 +214,7 @@ def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str,
 def _form_conflicts(node: Section, family: DriveFamily) -> bool:
     """Reports keys of the form a node does not use; True when the node may have axes."""
     ros_keys = [k for k in keys.ROS_AXIS_FORM if k in node]
-    if not family.has_cia402:
+    if not family.max_axes:
         for key in (['axes'] if 'axes' in node else []) + ros_keys:
             if node.own(key):
                 node.issues.error(node.loc(key), f"family '{family.name}' has no CiA 402 axes; remove {key}")

@@ -48,7 +48,7 @@ NODE_IGNORED: dict[str, str] = {
     'heartbeat_multiplier': 'per-node multiplier; drive_bridge uses master.heartbeat_multiplier for all nodes',
 }
 
-AXIS = ('joint', 'slot', 'type', 'mode', *MODE_KEYS, 'interpolation', 'scaling', 'limits', 'homing')
+AXIS = ('joint', 'slot', 'type', 'mode', *MODE_KEYS, 'interpolation', 'scaling', 'limits', 'homing', 'drive')
 PHYSICAL_SCALING = ('counts_per_revolution', 'counts_per_metre', 'gear_ratio', 'direction', 'offset',
                     'velocity_scale', 'rated_torque')
 SCALING = PHYSICAL_SCALING + LINEAR_SCALING

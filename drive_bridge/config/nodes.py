@@ -199,7 +199,7 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
         return draft
     draft.axes = parse_axes(node, name, family, ros_defaults, ctx.file)
     explicit_pdos = 'rpdo' in node and 'tpdo' in node
-    too_many = family.has_cia402 and len(draft.axes) > family.max_axes
+    too_many = len(draft.axes) > family.max_axes
     if too_many and not explicit_pdos:
         issues.error(_axes_loc(node), f"{len(draft.axes)} axes, but family '{family.name}' drives at most "
                                       f'{family.max_axes} with its default PDO map; give explicit rpdo and tpdo '
@@ -221,7 +221,8 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     # a wrong axis count or slot already explains why the family's map cannot fit: say it once
     axes_fit = False
     if not (too_many and not explicit_pdos):
-        axes_fit = all([check_axis_objects(issues, od, eds_name, axis) for axis in draft.axes])
+        axes_fit = all([check_axis_objects(issues, od, eds_name, axis) for axis in draft.axes]) \
+            if family.has_cia402 else True
     draft.pdos = [resolve_pdo(issues, od, eds_name, p) if axes_fit or not p.from_family else p
                   for p in draft.pdos]
     check_guarding_objects(node, supervision, od, eds_name, sdo_items)

@@ -24,7 +24,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from enum import Enum
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
 from drive_bridge.cia402 import objects as obj
@@ -99,6 +99,12 @@ class DriveFamily:
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
         """(RPDOs, TPDOs) used when the config gives no mapping."""
         return (), ()
+
+    def parse_axis_options(self, options: Mapping[str, Any]) -> tuple[Mapping[str, Any], Sequence[tuple[str, str]]]:
+        """Validate an axis' ``drive`` settings (the family's own keys; ``{}`` when the axis
+        gives none): (the values the joint driver gets, [(key, error message)]). By default a
+        family takes no such settings."""
+        return {}, [(key, f"family '{self.name}' takes no drive settings") for key in options]
 
     # -- boot --------------------------------------------------------------------------------
     def is_bootup_emcy(self, data: bytes) -> bool:

@@ -39,6 +39,7 @@ NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
 SUPERVISOR_PERIOD = 0.02
 UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # cycle period when the bridge sends no SYNC
 ADHOC_SDO_TIMEOUT = 0.3
+LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets
 
 
 @dataclass(frozen=True)
@@ -167,12 +168,7 @@ class Master:
         """Quick-stop enabled axes (bounded wait), then stop SYNC, heartbeat and the bus."""
         if not self.started:
             return
-        enabled = [a for a in self.axes.values() if a.drive_state is DriveState.ENABLED]
-        for axis in enabled:
-            try:
-                axis.quick_stop(timeout=stop_timeout)
-            except Exception as exc:
-                log.warning('stopping %s: %s', axis.joint, exc)
+        self._stop_axes(list(self.axes.values()), stop_timeout)
         self._stop.set()
         if self._supervisor is not None:
             self._supervisor.join(timeout=2)
@@ -358,14 +354,29 @@ class Master:
                   data_type: int = AUTO) -> int:
         return self._channel(node_id).write(index, subindex, value, data_type)
 
-    def nmt(self, command: int, node_id: int = 0) -> None:
-        """Send an NMT command to one node or (0) all; ValueError for a bad command or id."""
+    def nmt(self, command: int, node_id: int = 0, stop_timeout: float = 1.0) -> None:
+        """Send an NMT command to one node or (0) all; ValueError for a bad command or id.
+        A command that takes a node out of OPERATIONAL first quick-stops its enabled axes
+        (bounded wait): a drive that runs on when the bus stops (no heartbeat consumer, no
+        RPDO timeout) must not keep its last command."""
         if command not in NMT_COMMANDS:
             known = ', '.join(f'{c} ({n})' for c, n in NMT_COMMANDS.items())
             raise ValueError(f'unknown NMT command {command}; use one of {known}')
         if not 0 <= node_id <= 127:
             raise ValueError(f'NMT node id must be 0 (all) or 1..127, got {node_id}')
+        if command in LEAVES_OPERATIONAL:
+            self._stop_axes([a for a in self.axes.values() if node_id in (0, a.node_id)], stop_timeout)
         self.network.send_message(0x000, bytes([command, node_id]))
+
+    def _stop_axes(self, axes: list[JointDriver], timeout: float) -> None:
+        """Quick-stop the enabled ones; a failure is logged, never raised (stopping goes on)."""
+        for axis in axes:
+            if axis.drive_state is not DriveState.ENABLED:
+                continue
+            try:
+                axis.quick_stop(timeout=timeout)
+            except Exception as exc:
+                log.warning('stopping %s: %s', axis.joint, exc)
 
     def parameter_access(self, node_id: int) -> ParameterAccess:
         """The family's access to the vendor parameters of a configured node (one per node,

@@ -94,8 +94,8 @@ class BridgeServices:
         return response
 
     async def nmt(self, request: NmtCommand.Request, response: NmtCommand.Response) -> NmtCommand.Response:
-        try:
-            self.master.nmt(request.command, request.node_id)
+        try:  # in the pool: a command leaving OPERATIONAL first stops the node's axes (blocking)
+            await self._in_pool(lambda: self.master.nmt(request.command, request.node_id))
         except ValueError as exc:
             response.success, response.message = False, str(exc)
             return response
