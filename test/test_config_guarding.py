@@ -157,3 +157,34 @@ def test_boot_sdos_to_the_guard_objects_are_warnings(tmp_path: Path) -> None:
         'drives.yaml: nodes.ros.sdo[0]: 0x100D makes the node expect node guarding, but the master guards only '
         'nodes with guard_time_ms; give guard_time_ms (and life_time_factor) instead',
     )  # writing 0 (nodes.ros.sdo[1]) switches the node's life guarding off: no warning
+
+
+def test_a_family_without_heartbeat_must_be_guarded(tmp_path: Path) -> None:
+    from drive_bridge.families import DriveFamily, register_family, unregister_family
+
+    class NoHeartbeat(DriveFamily):
+        name = 'test_no_heartbeat'
+        has_heartbeat = False
+        default_eds = AKD_EDS
+
+    register_family(NoHeartbeat)
+    try:
+        node = '{node_id: 1, family: test_no_heartbeat, axes: []'
+        assert problems(tmp_path, f"""
+            nodes:
+              a: {node}}}
+        """) == ["drives.yaml: nodes.a.family: family 'test_no_heartbeat' has no heartbeat: node 'a' needs "
+                 'guard_time_ms (node guarding, e.g. 100) so that the bridge notices when it is lost']
+        assert problems(tmp_path, f"""
+            nodes:
+              a: {node}, guard_time_ms: 100, heartbeat_producer: 50}}
+        """) == ["drives.yaml: nodes.a.heartbeat_producer: family 'test_no_heartbeat' has no heartbeat (no 0x1017): "
+                 "supervise node 'a' with guard_time_ms (node guarding) instead"]
+        config = load_yaml(tmp_path, f"""
+            defaults: {{heartbeat_producer: 50}}
+            nodes:
+              a: {node}, guard_time_ms: 100}}
+        """)
+        assert (config.nodes[0].heartbeat_producer_ms, config.nodes[0].guard_time_ms) == (0, 100)
+    finally:
+        unregister_family('test_no_heartbeat')

@@ -54,9 +54,21 @@ def _guarding(node: Section) -> tuple[int, int]:
     return 0, 0
 
 
-def parse_supervision(node: Section, name: str) -> Supervision:
-    """Heartbeat or guarding of node ``name``; both > 0 at the same level is an error."""
+def parse_supervision(node: Section, name: str, family: str = '', has_heartbeat: bool = True) -> Supervision:
+    """Heartbeat or guarding of node ``name``; both > 0 at the same level is an error. A
+    family without heartbeat must be guarded: no guard time is an error, and so is a
+    heartbeat time the node gives itself (one from ``defaults`` does not apply to it)."""
     guard, factor = _guarding(node)
+    if not has_heartbeat:
+        if node.own('heartbeat_producer') and (node.get_int('heartbeat_producer', 0) or 0):
+            node.issues.error(node.loc('heartbeat_producer'),
+                              f"family '{family}' has no heartbeat (no 0x1017): supervise node '{name}' with "
+                              'guard_time_ms (node guarding) instead')
+        elif not guard and 'guard_time_ms' not in node:
+            node.issues.error(node.loc('family') if 'family' in node else node.where,
+                              f"family '{family}' has no heartbeat: node '{name}' needs guard_time_ms "
+                              '(node guarding, e.g. 100) so that the bridge notices when it is lost')
+        return Supervision(0, guard, factor)
     producer = node.get_int('heartbeat_producer', 0 if guard else DEFAULT_HEARTBEAT_MS, lo=0, hi=0xFFFF) or 0
     if not (guard and producer):
         return Supervision(producer, guard, factor)

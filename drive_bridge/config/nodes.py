@@ -210,7 +210,7 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     sdo_items = node.get_list('sdo', 'a list of {index, sub_index, value}') or []
     boot_sdo = parse_boot_sdo(issues, sdo_items, od, eds_name, ctx.file)
     identity = Identity(**{key: node.get_int(key, lo=0, hi=0xFFFFFFFF, allow_str=True) for key in keys.IDENTITY})
-    supervision = parse_supervision(node, name)
+    supervision = parse_supervision(node, name, family.name, family.has_heartbeat)
     consumer = _heartbeats(ctx, node, supervision)
     reset = node.get_bool('reset_communication', True)
     timeouts = _timeouts(node)
