@@ -37,3 +37,30 @@ def test_a_stalled_sync_thread_delays_the_trajectory_instead_of_faulting_the_dri
         time.sleep(0.3)
         assert abs(axis.snapshot().position - (here - 0.55)) < 1e-3
         assert sim.drive(3).axis(1).fault_code == 0
+
+
+def test_a_velocity_only_trajectory_is_integrated_and_streamed_in_csv() -> None:
+    """joint_trajectory_controller's allow_integration_in_goal_trajectories: points with
+    velocities and no positions; the axis ends where the integrated velocities say."""
+    from drive_bridge.streaming.trajectory import TrajectoryError
+    with running(config_from(demo_data())) as (master, sim):
+        axis = master.axes['elbow_joint']
+        axis.enable(timeout=2.0)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        master.add_cycle_listener(executor.check)
+        velocity_only = Trajectory(('elbow_joint',), (
+            TrajectoryPoint(0.4, (), (0.3,)), TrajectoryPoint(0.8, (), (0.3,)), TrajectoryPoint(1.2, (), (0.0,))))
+        try:  # csp takes positions: a trajectory without them is refused, naming the mode
+            executor.submit(velocity_only)
+            raise AssertionError('a velocity-only trajectory was accepted in csp')
+        except TrajectoryError as exc:
+            assert 'without positions needs a velocity streaming mode' in str(exc)
+        axis.set_mode('csv')
+        here = axis.snapshot().position
+        handle = executor.submit(velocity_only)
+        assert handle is not None and handle.wait(5.0)
+        assert handle.state == 'succeeded', handle.reason
+        # 0.3 rad/s ramp in over 0.4 s, 0.4 s at 0.3, ramp out over 0.4 s: 0.24 rad
+        time.sleep(0.3)
+        assert abs(axis.snapshot().position - (here + 0.24)) < 0.02
+        assert axis.snapshot().state is State.OPERATION_ENABLED

@@ -74,3 +74,16 @@ def test_bad_trajectories_are_refused_with_the_reason(trajectory: Trajectory, me
     with pytest.raises(TrajectoryError) as error:
         validate(trajectory, LIMITS, '~/joint_trajectory')
     assert message in str(error.value) and str(error.value).startswith('~/joint_trajectory: ')
+
+
+def test_velocity_only_points_are_integrated_from_the_start_position() -> None:
+    from drive_bridge.streaming.trajectory import JointSample, joint_splines
+    trajectory = Trajectory(('j',), (TrajectoryPoint(1.0, (), (1.0,)), TrajectoryPoint(2.0, (), (0.0,))))
+    validate(trajectory, {'j': AxisLimits()})
+    spline = joint_splines(trajectory, 10.0, {'j': JointSample(5.0, 0.0, 0.0)})['j']
+    assert spline.sample(11.0).position == pytest.approx(5.5)  # (0 + 1) / 2 * 1 s
+    assert spline.sample(12.0).position == pytest.approx(6.0)
+    assert spline.sample(11.0).velocity == pytest.approx(1.0)
+    mixed = Trajectory(('j',), (TrajectoryPoint(1.0, (0.0,), (1.0,)), TrajectoryPoint(2.0, (), (0.0,))))
+    with pytest.raises(TrajectoryError, match='some points have positions and others not'):
+        validate(mixed, {'j': AxisLimits()})

@@ -249,6 +249,13 @@ class ModeControl:
         self.node.write(*self.pvt.time, time_units)
         self.node.write(*self.pvt.position, position)
 
+    def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
+        """A CiA 402 axis follows any trajectory its streaming mode takes; a velocity-only
+        one only in a velocity mode (its positions are integrated, not measured)."""
+        if not has_positions and self.stream_strategy() != 'cyclic-velocity':
+            raise AxisError(f'{self._where()}: a trajectory without positions needs a velocity streaming '
+                            f'mode (csv); mode is {mode_name(self._mode)}')
+
     def command_field(self) -> str | None:
         """Which value a direct command of the current mode carries: position, velocity or effort."""
         mode = self._mode

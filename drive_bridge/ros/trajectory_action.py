@@ -120,9 +120,10 @@ class TrajectoryAction:
                     return self._result(Result.PATH_TOLERANCE_VIOLATED, violation)
             else:
                 actual = {j: self.master.axes[j].snapshot() for j in joints}
+                # a velocity-only goal has no goal position: only its velocity tolerance applies
                 misses = [f'{j}: position {actual[j].position:.6g}, goal {goal_positions[j]:.6g} '
                           f'(tolerance {tol:g})' for j, tol in final['position'].items()
-                          if abs(actual[j].position - goal_positions[j]) > tol]
+                          if j in goal_positions and abs(actual[j].position - goal_positions[j]) > tol]
                 misses += [f'{j}: velocity {actual[j].velocity:.6g} (tolerance {tol:g})'
                            for j, tol in final['velocity'].items() if abs(actual[j].velocity) > tol]
                 if not misses:

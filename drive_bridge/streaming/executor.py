@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.joint import DriveState, JointDriver, Setpoint
+from drive_bridge.joint import DriveState, JointDriver, JointError, Setpoint
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (
     JointSample,
@@ -75,7 +75,9 @@ class TrajectoryExecutor:
         self._ids = itertools.count(1)
 
     # -- submitting -----------------------------------------------------------------------
-    def _check_axes(self, joints: Iterable[str], source: str) -> None:
+    def _check_axes(self, joints: Iterable[str], source: str, fields: tuple[bool, bool] = (True, False)) -> None:
+        """Each joint is available, enabled, in a streaming mode, and (its driver says) can
+        follow a trajectory with these fields (has positions, has velocities)."""
         for joint in joints:
             axis = self.axes[joint]
             snapshot = axis.snapshot()
@@ -88,6 +90,10 @@ class TrajectoryExecutor:
             if axis.stream_strategy() is None:
                 raise TrajectoryError(f'{source}: joint {joint} is in mode {snapshot.mode_name}, which takes '
                                       'no trajectory; set a streaming mode first (csp, csv or ip; set_mode)')
+            try:
+                axis.check_trajectory(*fields)
+            except JointError as exc:
+                raise TrajectoryError(f'{source}: {exc}') from None
 
     def desired(self, joint: str, t: float) -> JointSample | None:
         """The desired state of a joint at time t, None when no trajectory ever ran."""
@@ -118,7 +124,9 @@ class TrajectoryExecutor:
         if end < now:
             raise TrajectoryError(f'{source}: ends {now - end:.3f} s in the past (header.stamp too old)')
         held = tuple(j for j in self.axes if j not in trajectory.joints and self._owner[j] is not None)
-        self._check_axes((*trajectory.joints, *held), source)
+        first = trajectory.points[0]
+        self._check_axes(trajectory.joints, source, (bool(first.positions), bool(first.velocities)))
+        self._check_axes(held, source)
         # a PVT stream already committed points to the drive: splice after them
         horizons = [f.horizon for j, f in self._feeders.items() if j in trajectory.joints or j in held]
         committed = max((h for h in horizons if h is not None), default=start)

@@ -1,7 +1,10 @@
 """Joint trajectories in the core: the data, its validation, and per-joint splines.
 
 Interpolation follows joint_trajectory_controller: positions only -> linear; with
-velocities -> cubic Hermite; with velocities and accelerations -> quintic. A trajectory
+velocities -> cubic Hermite; with velocities and accelerations -> quintic. Points with
+velocities and no positions (for velocity-commanded joints) get their positions by
+integrating the velocities from the start state, as joint_trajectory_controller does with
+``allow_integration_in_goal_trajectories``. A trajectory
 whose first point is later than its start begins from the joint's current desired state
 (position, velocity, acceleration) at the start time, which is also how a replacement
 splices into a running trajectory.
@@ -66,8 +69,10 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
             raise TrajectoryError(f'{where}: time_from_start {point.time:.6g} s is not after the previous '
                                   f'point ({previous:.6g} s); times must increase strictly')
         previous = point.time
-        if len(point.positions) != len(joints):
+        if point.positions and len(point.positions) != len(joints):
             raise TrajectoryError(f'{where}: {len(point.positions)} positions for {len(joints)} joints')
+        if not point.positions and not point.velocities:
+            raise TrajectoryError(f'{where}: neither positions nor velocities')
         for name, values in (('velocities', point.velocities), ('accelerations', point.accelerations)):
             if values and len(values) != len(joints):
                 raise TrajectoryError(f'{where}: {len(values)} {name} for {len(joints)} joints')
@@ -90,6 +95,9 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
             limit = known[joint].max_velocity
             if limit is not None and abs(velocity) > limit:
                 raise TrajectoryError(f'{where}: velocity {velocity:.6g} of {joint} exceeds its limit {limit:.6g}')
+    if len({bool(p.positions) for p in trajectory.points}) > 1:
+        raise TrajectoryError(f'{source}: some points have positions and others not; give positions in every '
+                              'point, or (velocity-only trajectory) in none')
     kinds = {(bool(p.velocities), bool(p.accelerations)) for p in trajectory.points}
     if len(kinds) > 1:
         raise TrajectoryError(f'{source}: some points have velocities/accelerations and others not; '
@@ -161,6 +169,22 @@ def order_of(trajectory: Trajectory) -> int:
     return 5 if first.accelerations else 3 if first.velocities else 1
 
 
+def has_positions(trajectory: Trajectory) -> bool:
+    return bool(trajectory.points) and bool(trajectory.points[0].positions)
+
+
+def integrated_positions(trajectory: Trajectory, j: int, start: float) -> list[float]:
+    """Positions of joint ``j`` at the points of a velocity-only trajectory: the velocities
+    integrated from ``start`` at time 0 (trapezoidal, exact for the cubic through them when
+    the velocity is linear between points)."""
+    positions, position, time, velocity = [], start, 0.0, 0.0
+    for point in trajectory.points:
+        position += (velocity + point.velocities[j]) / 2 * (point.time - time)
+        time, velocity = point.time, point.velocities[j]
+        positions.append(position)
+    return positions
+
+
 def joint_splines(trajectory: Trajectory, start_time: float,
                   start_states: Mapping[str, JointSample]) -> dict[str, JointSpline]:
     """One spline per joint of a validated, non-empty trajectory."""
@@ -168,7 +192,11 @@ def joint_splines(trajectory: Trajectory, start_time: float,
     times = [p.time for p in trajectory.points]
     splines = {}
     for j, joint in enumerate(trajectory.joints):
-        samples = [JointSample(p.positions[j], p.velocities[j] if p.velocities else 0.0,
-                               p.accelerations[j] if p.accelerations else 0.0) for p in trajectory.points]
-        splines[joint] = JointSpline(start_time, start_states[joint], times, samples, order)
+        start = start_states[joint]
+        positions = ([p.positions[j] for p in trajectory.points] if has_positions(trajectory)
+                     else integrated_positions(trajectory, j, start.position))
+        samples = [JointSample(position, p.velocities[j] if p.velocities else 0.0,
+                               p.accelerations[j] if p.accelerations else 0.0)
+                   for position, p in zip(positions, trajectory.points)]
+        splines[joint] = JointSpline(start_time, start, times, samples, order)
     return splines
