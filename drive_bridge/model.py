@@ -129,6 +129,18 @@ class AxisLimits:
 
 
 @dataclass(frozen=True)
+class PositionLoopConfig:
+    """The bridge's position loop for a joint streamed through velocity set-points."""
+
+    gain: float = 0.0  # 1/s; 0 = no loop (velocity modes take velocity set-points as they are)
+    following_error: float | None = None  # SI; beyond it the stream is aborted and the axis held
+
+    @property
+    def enabled(self) -> bool:
+        return self.gain > 0
+
+
+@dataclass(frozen=True)
 class HomingConfig:
     """Homing parameters; None leaves the drive's own value (0x6098, 0x6099, 0x609A, 0x607C)."""
 
@@ -154,6 +166,7 @@ class AxisConfig:
     scaling: AxisScaling = field(default_factory=AxisScaling)
     limits: AxisLimits = field(default_factory=AxisLimits)
     homing: HomingConfig = field(default_factory=HomingConfig)
+    position_loop: PositionLoopConfig = field(default_factory=PositionLoopConfig)
     # the drive family's own per-axis settings (the axis key `drive`), as its
     # parse_axis_options validated them
     drive: Mapping[str, Any] = field(default_factory=dict)

@@ -24,6 +24,7 @@ from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, SetpointSource
+from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.model import AxisConfig, Timeouts
 
 HOLD_COMMAND = {
@@ -92,6 +93,8 @@ class Axis(ModeControl):
         self._feeder: BufferFeeder | None = None  # IP PVT: pushes points while the buffer has room
         self._stop_deceleration: float | None = None
         self._targets: dict[str, int] = {}  # device units, by target key name
+        self._loop: PositionLoop | None = None
+        self._loop_target: tuple[float, float] | None = None
         self._source: SetpointSource | None = None
         self._last_command = 0.0  # monotonic time of the last streamed command
         self._stale = False
@@ -180,6 +183,7 @@ class Axis(ModeControl):
             self._source = None
             self._feeder = None
             self._ip_point = None
+            self._loop_target = None
             self._pp_phase = PP_IDLE
             self._message = 'node configured again: enable the axis to move it'
             self._cond.notify_all()

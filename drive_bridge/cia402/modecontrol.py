@@ -25,6 +25,7 @@ from drive_bridge.cia402.modes import (
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.model import AxisConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
@@ -70,6 +71,8 @@ class ModeControl:
     _stale: bool
     _written: dict[tuple[int, int], int | float]
     _message: str
+    _loop: PositionLoop | None  # the bridge's position loop (velocity modes, 'position-loop' strategy)
+    _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
 
     # provided by the state-machine driver
     @property
@@ -121,10 +124,14 @@ class ModeControl:
             self._pp_done = self.node.stamp(*self.key['statusword'])
         return 0
 
+    def _looped(self) -> bool:
+        return self.stream_strategy() == 'position-loop'
+
     def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
         mode = self._mode
         actual = self._value('position')
-        if state is not State.OPERATION_ENABLED or (not self._targets and self._source is None):
+        idle = not self._targets and self._source is None and self._loop_target is None
+        if state is not State.OPERATION_ENABLED or idle:
             # follow the actual position until commanded: enabling never jumps
             hold = {'target_velocity': 0, 'target_torque': 0}
             if actual is not None and mode != Mode.PROFILE_POSITION:
@@ -134,24 +141,57 @@ class ModeControl:
                 self._source = None
                 self._feeder = None
                 self._ip_point = None
+                self._loop_target = None
                 self._stale = False
             return hold if not self._targets else {**hold, **self._targets}
         if self._source is not None:
             setpoint = self._source(now)
             if setpoint is not None:
                 self._apply_setpoint(setpoint)
-        if mode in CYCLIC_MODES and self._last_command and \
+        looped = self._loop_target is not None and self._looped()
+        if (mode in CYCLIC_MODES or looped) and self._last_command and \
                 time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
             self._stale = True
             self._message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
                              f'{mode_name(mode)}: holding position')
             self._targets = {'target_velocity': 0, 'target_torque': 0}
-            if actual is not None:
+            if looped and self._loop_target is not None:  # the loop holds the last desired position
+                self._loop_target = (self._loop_target[0], 0.0)
+            elif actual is not None:
                 self._targets['target_position'] = int(actual)
+        if looped and actual is not None:
+            self._close_loop(actual)
         return dict(self._targets)
+
+    def _close_loop(self, actual: int | float) -> None:
+        """One step of the bridge's position loop: 0x60FF from the desired state and the
+        measured position; beyond the following-error limit a trajectory stream stops with HALT."""
+        assert self._loop_target is not None
+        if self._loop is None:
+            self._loop = PositionLoop(self.config.position_loop, self.config.limits)
+        scaling = self.config.scaling
+        position, velocity = self._loop_target
+        out = self._loop.step(position, velocity, scaling.position_to_si(actual), self.cycle_period)
+        if out.exceeded and self._source is not None:  # supervised while a trajectory streams;
+            self._halt = True                            # a direct command is a step on purpose
+            self._source = None
+            self._loop_target = None
+            self._loop.reset()
+            self._message = (f'following error {out.error:.4g} beyond the position loop limit '
+                             f'{self.config.position_loop.following_error:.4g}: stream aborted, axis held (HALT)')
+            self._targets['target_velocity'] = 0
+            return
+        self._targets['target_velocity'] = scaling.velocity_to_device(out.velocity)
 
     def _apply_setpoint(self, setpoint: Setpoint) -> None:
         scaling = self.config.scaling
+        if setpoint.position is not None and self._looped():
+            if self._loop_target is None and self._loop is not None:
+                self._loop.reset(self._actual_velocity())
+            self._loop_target = (setpoint.position, setpoint.velocity or 0.0)
+            self._last_command = time.monotonic()
+            self._stale = False
+            return
         if setpoint.position is not None and self._mode == Mode.INTERPOLATED_POSITION:
             self._ip_point = scaling.position_to_device(setpoint.position)
         elif setpoint.position is not None:
@@ -192,6 +232,7 @@ class ModeControl:
                 self._source = None
                 self._feeder = None
                 self._ip_point = None
+                self._loop_target = None
                 self._pp_phase = PP_IDLE
             self._mode = code
         wait = timeout if timeout is not None else self.timeouts.mode_switch
@@ -263,10 +304,17 @@ class ModeControl:
                 else 'effort' if mode in TORQUE_MODES else None)
 
     def stream_strategy(self) -> str | None:
-        """How trajectories are streamed in the requested mode (the family decides)."""
+        """How trajectories are streamed in the requested mode (the family decides); a
+        velocity mode with the axis' ``position_loop`` set streams through the bridge's loop."""
+        if self.config.position_loop.enabled and self._mode in VELOCITY_MODES:
+            return 'position-loop'
         if self.profile is not None:
             return self.profile.streaming_strategy(self._mode, self.config.ip_submode)
         return standard_strategy(self._mode, self.config.ip_submode, None)
+
+    def _actual_velocity(self) -> float:
+        value = self._value('velocity')
+        return self.config.scaling.velocity_to_si(value) if value is not None else 0.0
 
     def is_stream_fault(self, event: EmcyEvent) -> bool:
         """The family says this EMCY reports an interpolation buffer underflow/overflow."""
@@ -300,7 +348,7 @@ class ModeControl:
         """Raise AxisError if this command cannot be applied now (limits, mode, state)."""
         self._check_limits(position, velocity, effort)
         mode = self._mode
-        if position is not None and mode not in POSITION_MODES:
+        if position is not None and mode not in POSITION_MODES and not self._looped():
             raise AxisError(f'{self._where()}: a position command needs a position mode; mode is {mode_name(mode)}')
         if velocity is not None and mode not in VELOCITY_MODES and mode != Mode.CYCLIC_SYNC_POSITION:
             raise AxisError(f'{self._where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
@@ -326,7 +374,7 @@ class ModeControl:
                                           effort if mode in TORQUE_MODES else None))
             if mode == Mode.PROFILE_POSITION and position is not None:
                 self._pp_phase = PP_STAGED
-            if mode not in CYCLIC_MODES:
+            if mode not in CYCLIC_MODES and not self._looped():
                 self._last_command = 0.0  # profile modes keep their target: no dead-man
 
     def commanded_position(self) -> float:

@@ -20,7 +20,7 @@ from drive_bridge.config.odcheck import hex_index, known_name
 from drive_bridge.config.reader import Section, describe, to_str
 from drive_bridge.config.scaling import parse_scaling
 from drive_bridge.families import DriveFamily
-from drive_bridge.model import AxisConfig, AxisLimits, HomingConfig, JointType
+from drive_bridge.model import AxisConfig, AxisLimits, HomingConfig, JointType, PositionLoopConfig
 
 JOINT_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 CORE_OBJECTS = (obj.CONTROLWORD, obj.STATUSWORD, obj.MODES_OF_OPERATION, obj.MODES_OF_OPERATION_DISPLAY,
@@ -66,7 +66,8 @@ def _mode(sec: Section, key: str, family: DriveFamily) -> int:
         sec.issues.error(sec.loc(key), f'expected a mode name ({names}) or a number -128..127, '
                                        f'got {describe(raw)}')
         return fallback
-    if allowed is not None and code >= 0 and code not in allowed:
+    looped = key == 'position_mode' and 'position_loop' in sec and code in VELOCITY_MODES
+    if allowed is not None and code >= 0 and code not in allowed and not looped:  # the loop makes pv/csv position modes
         names = ', '.join(mode_name(m) for m in sorted(allowed))
         kind = key.split('_')[0]
         shown = f'{describe(raw)} ({mode_name(code)})' if isinstance(raw, int) else f'{describe(raw)} (mode {code})'
@@ -99,6 +100,14 @@ def _limits(sec: Section | None) -> AxisLimits:
                       max_velocity=sec.get_number('max_velocity', gt=0),
                       max_acceleration=sec.get_number('max_acceleration', gt=0),
                       max_effort=sec.get_number('max_effort', gt=0))
+
+
+def _position_loop(sec: Section | None) -> PositionLoopConfig:
+    if sec is None:
+        return PositionLoopConfig()
+    sec.check_keys(keys.POSITION_LOOP)
+    return PositionLoopConfig(gain=sec.get_number('gain', gt=0) or 0.0,
+                              following_error=sec.get_number('following_error', gt=0))
 
 
 def _homing(sec: Section | None) -> HomingConfig:
@@ -141,6 +150,7 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
                       joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
+                      position_loop=_position_loop(sec.section('position_loop')),
                       drive=_drive_options(sec, family), where=f'{file}: {loc.path}', **modes)
     slot_loc = sec.loc('slot') if 'slot' in sec else loc
     return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None

@@ -48,7 +48,9 @@ NODE_IGNORED: dict[str, str] = {
     'heartbeat_multiplier': 'per-node multiplier; drive_bridge uses master.heartbeat_multiplier for all nodes',
 }
 
-AXIS = ('joint', 'slot', 'type', 'mode', *MODE_KEYS, 'interpolation', 'scaling', 'limits', 'homing', 'drive')
+AXIS = ('joint', 'slot', 'type', 'mode', *MODE_KEYS, 'interpolation', 'scaling', 'limits', 'homing',
+        'position_loop', 'drive')
+POSITION_LOOP = ('gain', 'following_error')
 PHYSICAL_SCALING = ('counts_per_revolution', 'counts_per_metre', 'gear_ratio', 'direction', 'offset',
                     'velocity_scale', 'rated_torque')
 SCALING = PHYSICAL_SCALING + LINEAR_SCALING

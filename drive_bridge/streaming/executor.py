@@ -201,6 +201,13 @@ class TrajectoryExecutor:
 
         def sample(t: float) -> Setpoint | None:
             t = self._tick(t)
+            if axis.stream_strategy() == 'position-loop':
+                # the measured position was sampled at the previous SYNC: compare it with the
+                # desired position then; feed forward the velocity of the coming period
+                then, ahead = self.desired(joint, t - period), self.desired(joint, t + period / 2)
+                if then is None or ahead is None:
+                    return None
+                return Setpoint(position=then.position, velocity=ahead.velocity)
             if axis.stream_strategy() == 'cyclic-velocity':
                 desired = self.desired(joint, t + period / 2)
                 return None if desired is None else Setpoint(velocity=desired.velocity)
@@ -269,6 +276,9 @@ class TrajectoryExecutor:
                     emcy = f'; {snapshot.last_emcy}' if snapshot.last_emcy else ''
                     reason = f'joint {joint} left operation enabled ({snapshot.state.label}){emcy}'
                     self.stop(handle.joints, reason, 'aborted')
+                    break
+                if snapshot.halted:  # the driver stopped the stream itself (e.g. following error)
+                    self.stop(handle.joints, f'joint {joint} held: {snapshot.message or "HALT"}', 'aborted')
                     break
             else:
                 if now >= handle.end:
