@@ -20,7 +20,7 @@ from drive_bridge.config.odcheck import hex_index, known_name
 from drive_bridge.config.reader import Section, describe, to_str
 from drive_bridge.config.scaling import parse_scaling
 from drive_bridge.families import DriveFamily
-from drive_bridge.model import AxisConfig, AxisLimits, HomingConfig, JointType, PositionLoopConfig
+from drive_bridge.model import AxisConfig, AxisLimits, AxisScaling, HomingConfig, JointType, PositionLoopConfig
 
 JOINT_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 CORE_OBJECTS = (obj.CONTROLWORD, obj.STATUSWORD, obj.MODES_OF_OPERATION, obj.MODES_OF_OPERATION_DISPLAY,
@@ -144,9 +144,15 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     joint_type: JointType = sec.get_str('type', 'revolute', choices=('revolute', 'prismatic'))  # type: ignore[assignment]
     modes = _modes(sec, family)
     scaling_section = sec.section('scaling')
-    if scaling_section is not None:
-        scaling_section.check_keys(keys.SCALING)
-    scaling = parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
+    if not family.uses_axis_scaling:  # the family's driver scales from its own `drive` settings
+        if scaling_section is not None:
+            issues.error(sec.loc('scaling'), f"family '{family.name}' scales from the axis' `drive` settings; "
+                                             'remove scaling')
+        scaling = AxisScaling()
+    else:
+        if scaling_section is not None:
+            scaling_section.check_keys(keys.SCALING)
+        scaling = parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
     axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
                       joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),

@@ -64,7 +64,7 @@ def parse_supervision(node: Section, name: str, family: str = '', has_heartbeat:
             node.issues.error(node.loc('heartbeat_producer'),
                               f"family '{family}' has no heartbeat (no 0x1017): supervise node '{name}' with "
                               'guard_time_ms (node guarding) instead')
-        elif not guard and 'guard_time_ms' not in node:
+        elif not guard:
             node.issues.error(node.loc('family') if 'family' in node else node.where,
                               f"family '{family}' has no heartbeat: node '{name}' needs guard_time_ms "
                               '(node guarding, e.g. 100) so that the bridge notices when it is lost')

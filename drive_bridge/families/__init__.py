@@ -19,6 +19,7 @@ from drive_bridge.families import (
                                              akd as _akd,  # noqa: F401
                                              generic301 as _generic301,  # noqa: F401
                                              generic402 as _generic402,  # noqa: F401
+                                             opendrive as _opendrive,  # noqa: F401
 )
 
 __all__ = ['DATA_DIR', 'ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'Liveness',

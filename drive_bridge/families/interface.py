@@ -85,6 +85,7 @@ class DriveFamily:
     default_modes: ClassVar[Mapping[str, str]] = {}
     boot_detection: ClassVar[BootDetection] = BootDetection.BOOTUP_FRAME
     has_heartbeat: ClassVar[bool] = True  # False: the node must be guarded (config guard_time_ms)
+    uses_axis_scaling: ClassVar[bool] = True  # False: the driver scales from the axis' `drive` settings
     pdo_configuration: ClassVar[PdoConfiguration] = PdoConfiguration.FREE_MAPPING
     # communication-parameter sub-indices the node has (CiA 301: 1 COB-ID, 2 type, 3 inhibit,
     # 5 event timer, 6 SYNC start); the master writes only these

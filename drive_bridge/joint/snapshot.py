@@ -58,3 +58,8 @@ class AxisSnapshot:
     command_stale: bool  # the command dead-man is holding the axis
     last_emcy: EmcyEvent | None
     message: str
+
+    @property
+    def state_label(self) -> str:
+        """The CiA 402 state's name, or the drive-independent state for drives without one."""
+        return self.state.label if int(self.state) else self.drive_state.label

@@ -78,6 +78,9 @@ def axis_state_msg(snapshot: AxisSnapshot) -> AxisState:
     msg.target_reached = snapshot.target_reached
     msg.internal_limit_active = snapshot.internal_limit
     msg.following_error = snapshot.following_error
+    msg.halted = snapshot.halted
+    msg.command_stale = snapshot.command_stale
+    msg.message = snapshot.message
     if snapshot.last_emcy is not None:
         msg.last_error_code = snapshot.last_emcy.code
         msg.last_error_text = snapshot.last_emcy.text

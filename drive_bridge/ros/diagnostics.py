@@ -72,12 +72,12 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
         status.level, status.message = ERROR, f'unavailable (NMT {axis.nmt_state})'
     elif axis.drive_state is DriveState.FAULT or (axis.fault and axis.drive_state is DriveState.STOPPING):
         emcy = f': 0x{axis.last_emcy.code:04X} {axis.last_emcy.text}' if axis.last_emcy else ''
-        status.level, status.message = ERROR, f'{axis.state.label}{emcy}'
+        status.level, status.message = ERROR, f'{axis.state_label}{emcy}'
     elif axis.command_stale or axis.warning:
         status.level = WARN
-        status.message = axis.message if axis.command_stale else f'{axis.state.label}, drive warning bit set'
+        status.message = axis.message if axis.command_stale else f'{axis.state_label}, drive warning bit set'
     else:
-        status.level, status.message = OK, axis.state.label
+        status.level, status.message = OK, axis.state_label
     status.values = _values(
         state=axis.state.label, drive_state=axis.drive_state.label, mode=axis.mode_name,
         requested_mode=axis.requested_mode,

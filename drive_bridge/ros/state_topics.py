@@ -109,7 +109,8 @@ class StateTopics:
         if not self.active:
             return
         snapshots = [self.master.axes[j].snapshot() for j in self.joints]
-        key = tuple((s.available, s.statusword, s.mode, s.controlword, s.command_stale) for s in snapshots)
+        key = tuple((s.available, s.drive_state, s.statusword, s.mode, s.controlword, s.command_stale, s.fault,
+                     s.halted) for s in snapshots)
         if not force and key == self._last_states:
             return
         self._last_states = key

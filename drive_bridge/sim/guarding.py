@@ -45,8 +45,9 @@ def add_guarding_objects(store: ObjectStore) -> None:
 class NodeGuarding:
     """Toggle, reply count and life guarding of one slave (called with the slave's lock held)."""
 
-    def __init__(self, store: ObjectStore) -> None:
+    def __init__(self, store: ObjectStore, limit: Callable[[], float] | None = None) -> None:
         self._values = store.values
+        self._limit = limit  # s: the device's own ceiling of the life time (None: none)
         self.reset()
 
     def reset(self) -> None:
@@ -58,9 +59,10 @@ class NodeGuarding:
 
     @property
     def life_time(self) -> float:
-        """s, guard time x life time factor (0: life guarding off)."""
+        """s, guard time x life time factor (0: life guarding off), at most the device's limit."""
         values = self._values
-        return values.get(key(GUARD_TIME), 0) * values.get(key(LIFE_TIME_FACTOR), 0) / 1000.0
+        life = values.get(key(GUARD_TIME), 0) * values.get(key(LIFE_TIME_FACTOR), 0) / 1000.0
+        return min(life, self._limit()) if life and self._limit is not None else life
 
     def reply(self, state: int, repeat_toggle: bool = False) -> bytes:
         """The answer to an RTR in NMT ``state``; ``repeat_toggle``: the last reply's toggle again

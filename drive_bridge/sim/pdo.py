@@ -125,7 +125,8 @@ class PdoEngine:
     """All PDOs of one slave. Every method is called with the slave's lock held.
 
     Hooks a device model's PDO rules override: :meth:`validate` (parameter writes),
-    :meth:`mapping_locked`, :meth:`due_rpdos`, :meth:`value_getter`, :meth:`has_changed`.
+    :meth:`mapping_locked`, :meth:`due_rpdos`, :meth:`value_getter`, :meth:`has_changed`,
+    :meth:`acyclic_due`.
     """
 
     def __init__(self, store: ObjectStore, *, lock: threading.RLock, timers: TimerThread,
@@ -381,7 +382,7 @@ class PdoEngine:
         for pdo in self._sync_tpdos:
             if pdo.trans_type == 0:  # acyclic synchronous: on SYNC, when changed
                 data = self._pack(pdo)
-                if data != pdo.last_data:
+                if self.acyclic_due(pdo, data):
                     self._emit(pdo, data, now)
                 continue
             if not pdo.sync_started:
@@ -394,6 +395,11 @@ class PdoEngine:
             if pdo.sync_count >= pdo.trans_type:
                 pdo.sync_count = 0
                 self._emit(pdo, self._pack(pdo), now)
+
+    def acyclic_due(self, pdo: Pdo, data: bytes) -> bool:
+        """Hook: whether a TPDO of transmission type 0 is sent at this SYNC with ``data``.
+        Default (CiA 301, acyclic synchronous): when its data changed."""
+        return data != pdo.last_data
 
     def poll_events(self) -> None:
         """After anything that may change values: event-driven TPDOs whose data changed."""

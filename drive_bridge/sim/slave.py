@@ -77,6 +77,7 @@ class SimulatedSlave(CommFaultInjection):
     - :meth:`supervise` -- the device's own periodic checks;
     - :meth:`on_heartbeat_lost` / :meth:`on_heartbeat_recovered` -- heartbeat consumer events;
     - :meth:`on_life_guarding_lost` / :meth:`on_life_guarding_recovered` -- life guarding events;
+    - :meth:`life_time_limit` -- the device's ceiling of the node life time;
     - :meth:`expedited_download` -- the data an expedited SDO download carries.
     """
 
@@ -98,7 +99,7 @@ class SimulatedSlave(CommFaultInjection):
             self.store.remove(CONSUMER_HEARTBEAT)
             self.store.remove(PRODUCER_HEARTBEAT)
         add_guarding_objects(self.store)
-        self._guarding = NodeGuarding(self.store)
+        self._guarding = NodeGuarding(self.store, limit=self.life_time_limit)
         self._rtr_notifier: can.Notifier | None = None  # the Notifier whose RTR frames reach this node
         self._sdo_request: bytes | None = None  # the SDO request frame being served
         self.faults = CommFaults(boot_delay=self.options['boot_delay'], sdo_delay=self.options['sdo_delay'])
@@ -434,6 +435,18 @@ class SimulatedSlave(CommFaultInjection):
         """Hook: RTRs arrive again after a life guarding event, or a reset ends it. Default:
         its error is gone."""
         self.emcy.clear('guarding')
+
+    def life_time_limit(self) -> float:
+        """Hook: s, the longest node life time the device supports (0x100C x 0x100D is clamped
+        to it). Default: no limit."""
+        return math.inf
+
+    def remote_frames(self) -> RemoteFrames | None:
+        """The RTR dispatcher of the bus Notifier this node listens on (None before its Network
+        is connected): device models answering RTRs on other COB-IDs (RTR-only TPDOs) add
+        their handlers to it, with the lock taken in the handler."""
+        notifier = getattr(self._network, 'notifier', None)
+        return None if notifier is None else RemoteFrames.of(notifier)
 
     @property
     def guarding_lost(self) -> bool:

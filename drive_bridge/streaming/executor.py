@@ -85,7 +85,7 @@ class TrajectoryExecutor:
                 raise TrajectoryError(f'{source}: joint {joint} is not available (node {snapshot.node_id} '
                                       f'NMT {snapshot.nmt_state})')
             if snapshot.drive_state is not DriveState.ENABLED:
-                raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state.label}, not operation '
+                raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state_label}, not operation '
                                       'enabled; enable it first')
             if axis.stream_strategy() is None:
                 raise TrajectoryError(f'{source}: joint {joint} is in mode {snapshot.mode_name}, which takes '
@@ -274,7 +274,7 @@ class TrajectoryExecutor:
                 snapshot = self.axes[joint].snapshot()
                 if snapshot.drive_state is not DriveState.ENABLED or not snapshot.available:
                     emcy = f'; {snapshot.last_emcy}' if snapshot.last_emcy else ''
-                    reason = f'joint {joint} left operation enabled ({snapshot.state.label}){emcy}'
+                    reason = f'joint {joint} left operation enabled ({snapshot.state_label}){emcy}'
                     self.stop(handle.joints, reason, 'aborted')
                     break
                 if snapshot.halted:  # the driver stopped the stream itself (e.g. following error)

@@ -1,0 +1,224 @@
+"""The ``opendrive`` family: OPEN drive converters over CANopen (CiA 301 only; shared/drives/
+opendrive.md, from the drive's CAN appendix).
+
+What the bridge knows beyond the EDS (drive_bridge/families/data/opendrive.eds, written by
+tools/make_opendrive_eds.py):
+
+- no CiA 402: the joint driver is :class:`~drive_bridge.families.opendrive.driver.RunLogicDriver`
+  (enable = the RUN logic function, references 0x201A/0x201D and 0x201C, alarms 0x2018);
+- one axis per node; no heartbeat: always node guarding (the config must give
+  ``guard_time_ms``); the drive clamps its node life time to 32767 / f_pwm s, so the boot
+  writes a life time factor that keeps within it (and says so);
+- PDO rules of its own: TPDO type 0 is sent at *every* SYNC, 254 on the event timer only;
+  RPDO types 0..240 apply at the next SYNC, 254 at once (255 is not listed); the RPDO
+  communication records manage sub-indices 1 and 2 only (the bridge writes nothing else);
+- boot: fieldbus RUN low and references 0 before anything else (RUN starts high at power-on),
+  C52 = 1 checked (else the drive ignores every CAN reference), the life time clamp;
+- EMCY 0x10xx = an alarm (bytes 3-4 the alarm word), 0x00xx = alarms reset;
+- parameters P/C by number with their format words (``parameters``).
+
+Default PDO map (the element sub-indices follow the axis' ``array_offset``):
+
+======  ======================================================================  =====
+PDO     objects                                                                 bytes
+======  ======================================================================  =====
+RPDO1   0x201F logic word (RUN, alarm reset), speed reference 0x201A or 0x201D,   8
+        torque reference 0x201C (type 1: applied at the next SYNC)
+TPDO1   0x2021 logic read-back (RUN), 0x2018 alarms, actual velocity element       8
+        (type 0: every SYNC)
+TPDO2   actual torque element, position element (those configured; type 0)       2-4
+======  ======================================================================  =====
+
+The torque limit 0x201B does not fit RPDO1 and is left to the drive (its power-on value).
+Without SYNC (``master.sync_period: 0``) the RPDO is type 254 (applied at once) and the
+TPDOs type 254 with a 10 ms event timer.
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from drive_bridge.cia301.cob import predefined_cob_id
+from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia402.modes import Mode
+from drive_bridge.errors import DriveBridgeError
+from drive_bridge.families.interface import DATA_DIR, DriveFamily, Liveness
+from drive_bridge.families.opendrive import alarms, objects as od
+from drive_bridge.families.opendrive.driver import RunLogicDriver
+from drive_bridge.families.opendrive.options import DriveOptions, parse_options
+from drive_bridge.families.opendrive.parameters import OpenDriveParameters
+from drive_bridge.families.parameters import ParameterError, ParameterPort
+from drive_bridge.families.ports import BootStep, NodePort
+from drive_bridge.families.registry import register_family
+from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry, Timeouts
+
+log = logging.getLogger('drive_bridge.families.opendrive')
+
+SYNC_NEXT = 1  # RPDO: applied at the next SYNC
+APPLY_AT_ONCE = 254  # RPDO: applied at once (255 is not listed for this drive)
+EVERY_SYNC = 0  # TPDO: refreshed and sent at every SYNC (not CiA 301's acyclic meaning)
+EVENT_TIMER = 254  # TPDO: sent every event-timer period
+EVENT_TIMER_MS = 10
+
+
+class OpenDriveBootError(DriveBridgeError):
+    """A boot step of an OPEN drive found the drive unusable (the message says how to fix it)."""
+
+
+def _entry(index: int, bits: int, subindex: int = 0) -> PdoEntry:
+    return PdoEntry(index, subindex, bits)
+
+
+def _number(value: object, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise OpenDriveBootError(f'{what} is not a number ({value!r})')
+    return int(value)
+
+
+@register_family
+class OpenDrive(DriveFamily):
+    """OPEN drive (CiA 301, RUN logic, references 0x201A-0x201D), one axis per node."""
+
+    name = 'opendrive'
+    description = 'OPEN drive converter (CiA 301 only: RUN logic, CAN references, node guarding)'
+    default_eds = DATA_DIR / 'opendrive.eds'
+    has_cia402 = False
+    has_heartbeat = False
+    uses_axis_scaling = False  # the driver scales from the axis' drive settings (n_MAX, T_nom, ...)
+    max_axes = 1
+    emcy_texts = alarms.EMCY_TEXTS
+    accepted_modes = frozenset({Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE})
+    default_modes = {'mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
+    # RPDO records manage sub 1 and 2 only; TPDO records 1..5 (4 reserved); no SYNC start value
+    pdo_comm_subindices = frozenset({1, 2, 3, 5})
+
+    def __init__(self) -> None:
+        self._drivers: dict[int, RunLogicDriver] = {}  # by node id (one family instance per node)
+
+    # -- configuration ----------------------------------------------------------------------
+    def eds_for(self, axis_count: int) -> Path | None:
+        return self.default_eds
+
+    def parse_axis_options(self, options: Mapping[str, Any]) -> tuple[Mapping[str, Any], Sequence[tuple[str, str]]]:
+        return parse_options(options)
+
+    def liveness(self, config: NodeConfig) -> Liveness:
+        """Always node guarding (the drive has no heartbeat); the config requires guard_time_ms."""
+        return Liveness.GUARDING if config.guarding else Liveness.NONE
+
+    def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
+                     synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        if len(axes) > self.max_axes:
+            raise ValueError(f'an OPEN drive drives one axis, {len(axes)} given')
+        if not axes:
+            return (), ()
+        try:
+            options = DriveOptions.of(axes[0].drive)
+        except ValueError:
+            return (), ()  # the axis' drive settings are incomplete: the loader reports them
+        offset = options.array_offset
+        rx_type = SYNC_NEXT if synchronous else APPLY_AT_ONCE
+        tx_type = EVERY_SYNC if synchronous else EVENT_TIMER
+        timer = 0 if synchronous else EVENT_TIMER_MS
+        velocity = options.actual_velocity.key(offset)
+        rx = (_entry(od.INPUTS_STANDARD_WR, 32), _entry(options.speed_reference, 16), _entry(od.TORQUE_REFERENCE, 16))
+        tx1 = (_entry(od.INPUTS_STANDARD_RD, 32), _entry(od.ALARMS, 16), _entry(velocity[0], 16, velocity[1]))
+        tx2 = tuple(_entry(quantity.index, 16, quantity.element + offset)
+                    for quantity in (options.actual_torque, options.position) if quantity is not None)
+        rpdos = (PdoConfig(1, predefined_cob_id('rpdo', 1, node_id), transmission=rx_type, mapping=rx),)
+        tpdos = tuple(PdoConfig(n, predefined_cob_id('tpdo', n, node_id), transmission=tx_type, event_timer=timer,
+                                mapping=m) for n, m in ((1, tx1), (2, tx2)) if m)
+        return rpdos, tpdos
+
+    # -- the joint driver ---------------------------------------------------------------------
+    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
+                            cycle_period: float) -> JointDriver:
+        driver = RunLogicDriver(node, axis, timeouts, cycle_period, family=self.name)
+        self._drivers[node.node_id] = driver
+        return driver
+
+    # -- boot ----------------------------------------------------------------------------------
+    @staticmethod
+    def _options(node: NodePort) -> DriveOptions:
+        if not node.config.axes:
+            raise OpenDriveBootError('the node has no axis, so its drive settings (array_offset, f_pwm, the '
+                                     'alarm reset function) are unknown; give it one axis')
+        return DriveOptions.of(node.config.axes[0].drive)
+
+    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
+        return (('RUN low, references 0', self._stop_drive), ('C52 = 1 (CAN references)', self._check_c52))
+
+    def boot_steps_after(self, node: NodePort) -> Sequence[BootStep]:
+        return (('life time within 32767/f_pwm', self._clamp_life_time),
+                ('logic word 0x201F as the drive has it', self._read_logic_word))
+
+    def _stop_drive(self, node: NodePort) -> None:
+        """Fieldbus RUN low (the bits the bridge owns cleared, the others kept as read) and every
+        reference 0: the drive starts with RUN high, and may still hold a previous master's
+        references."""
+        options = self._options(node)
+        word = _number(node.sdo_read(od.INPUTS_STANDARD_WR, 0), '0x201F')
+        owned = od.RUN_BIT | 1 << options.alarm_reset_function
+        node.sdo_write(od.INPUTS_STANDARD_WR, 0, word & ~owned & 0xFFFFFFFF)
+        for index in (*od.SPEED_REFERENCES, od.TORQUE_REFERENCE):
+            if node.has_object(index):
+                node.sdo_write(index, 0, 0)
+
+    def _read_logic_word(self, node: NodePort) -> None:
+        """After the boot SDOs (which may set logic functions of the fieldbus channel): the
+        driver sends the bits it does not own as they are now (RUN and the alarm reset function
+        low again, should a boot SDO have set them)."""
+        word = _number(node.sdo_read(od.INPUTS_STANDARD_WR, 0), '0x201F')
+        owned = od.RUN_BIT | 1 << self._options(node).alarm_reset_function
+        if word & owned:
+            node.sdo_write(od.INPUTS_STANDARD_WR, 0, word & ~owned & 0xFFFFFFFF)
+        driver = self._drivers.get(node.node_id)
+        if driver is not None:
+            driver.set_logic_word(word)
+
+    def _check_c52(self, node: NodePort) -> None:
+        offset = self._options(node).array_offset
+        value = _number(node.sdo_read(od.CONNECTIONS, od.C52 + offset), f'C52 (0x200E:{od.C52 + offset:02X})')
+        if value != 1:
+            raise OpenDriveBootError(f'C52 = {value} (0x200E:{od.C52 + offset:02X}): the drive ignores the CAN '
+                                     'references 0x201A-0x201D unless C52 = 1; set C52 = 1 (~/param_write C52 1, '
+                                     'then ~/param_save) and restart the drive')
+
+    def _clamp_life_time(self, node: NodePort) -> None:
+        """The drive keeps at most 32767 / f_pwm s of node life time: write a life time factor
+        within it (and warn) when guard time x factor is longer."""
+        config = node.config
+        if not config.guarding:
+            return
+        limit_ms = self._options(node).life_time_limit_ms
+        life_ms = config.guard_time_ms * config.life_time_factor
+        if life_ms <= limit_ms:
+            return
+        factor = max(1, int(limit_ms // config.guard_time_ms))
+        log.warning('node %d (%s): node life time %d ms (guard time %d ms x %d) is longer than the drive keeps '
+                    '(32767 / f_pwm = %.0f ms); life time factor written as %d (%d ms)%s', node.node_id, node.name,
+                    life_ms, config.guard_time_ms, config.life_time_factor, limit_ms, factor,
+                    factor * config.guard_time_ms,
+                    '; the guard time alone is longer: shorten guard_time_ms' if factor * config.guard_time_ms
+                    > limit_ms else '')
+        node.sdo_write(od.LIFE_TIME_FACTOR, 0, factor)
+
+    # -- EMCY and parameters --------------------------------------------------------------------
+    def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
+        return alarms.decode(node_id, node_name, data, timestamp)
+
+    def parameters(self, port: ParameterPort) -> OpenDriveParameters:
+        """P and C parameters by number (0x200D / 0x200E) with their format words."""
+        driver = self._drivers.get(port.node_id)
+        config: NodeConfig | None = getattr(port, 'config', None)
+        if driver is not None:
+            offset = driver.options.array_offset
+        elif config is not None and config.axes and 'array_offset' in config.axes[0].drive:
+            offset = int(config.axes[0].drive['array_offset'])
+        else:
+            raise ParameterError(f'node {port.node_id} ({port.name}): the sub-index offset of the parameter arrays '
+                                 '(the axis drive setting array_offset) is unknown', node_id=port.node_id)
+        return OpenDriveParameters(port, offset)
