@@ -532,3 +532,19 @@ def test_a_position_loop_axis_takes_position_commands_through_the_speed_referenc
         axis.set_mode('pt')
         with pytest.raises(JointError, match='takes no position commands'):
             axis.command(position=target)
+
+
+def test_an_nmt_stop_from_the_bridge_stops_the_drive_first() -> None:
+    """NMT stop halts PDO traffic, and the drive would run on with its last references: the
+    bridge sends RUN low and references 0 before the NMT frame."""
+    with bridge(example()) as (master, sim, sniffer, axis):
+        enabled_at(axis, velocity=30.0)
+        eventually(lambda: sim.drive(NODE).speed_rpm > 200, 2.0, 'the motor turning')
+        mark = sniffer.mark
+        master.nmt(0x02, NODE)
+        nmt = eventually(lambda: [f for f in sniffer.frames(0x000, mark) if bytes(f.data) == bytes([0x02, NODE])],
+                         1.0, 'the NMT stop on the bus')
+        before = [rpdo(f) for f in sniffer.frames(RPDO1, mark) if f.index < nmt[0].index]
+        assert before and before[-1] == (0, 0, 0), before[-5:]
+        eventually(lambda: sim.drive(NODE).nmt_state == 'STOPPED', 2.0, 'the drive stopped')
+        assert not sim.drive(NODE).run_input

@@ -225,6 +225,12 @@ def test_a_velocity_trajectory_is_streamed_as_speed_references(bench: Bench) -> 
     wait_for(lambda: bench.rpdos()[-1] == (RUN, 0, 0), 3, 'back to rest at the end')
     assert not bench.errors
     assert bench.node.master.axes[JOINT].drive_state.label == 'enabled'
+    # positions only: nothing to follow without a position reference, refused with the family named
+    msg = JointTrajectory(joint_names=[JOINT])
+    msg.points = [JointTrajectoryPoint(positions=[1.0], time_from_start=Duration(sec=1))]
+    publisher.publish(msg)
+    wait_for(lambda: bench.errors, 3, 'a refusal')
+    assert "family 'opendrive' has no position reference" in bench.errors[-1].data, bench.errors[-1].data
 
 
 def test_position_commands_are_refused_with_the_family_named(ros: RosHarness) -> None:

@@ -519,11 +519,16 @@ class RunLogicDriver:
         return 'position-loop' if self._looped() else 'cyclic-velocity'
 
     def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
-        """In pv any trajectory is followed through its velocities (open loop: the drive has no
-        position reference); pt takes none."""
+        """In pv a trajectory is followed through its velocities (open loop: the drive has no
+        position reference), so it must carry them unless the bridge's position loop runs on a
+        configured position quantity; pt takes none."""
         if self._mode != PV:
             raise RunLogicError(f'{self._where()}: a trajectory needs pv (velocity references); mode is '
                                 f'{mode_name(self._mode)}')
+        if not has_velocities and not self._looped():
+            raise RunLogicError(f'{self._where()}: family {self.family!r} has no position reference: a trajectory '
+                                'of positions only is refused; give velocities (followed open loop), or configure '
+                                'a position quantity and position_loop')
 
     def commanded_position(self) -> float:
         target = self._loop_target
