@@ -25,6 +25,7 @@ from drive_bridge.cia402.modes import (
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.model import AxisConfig, Timeouts
 
@@ -327,21 +328,9 @@ class ModeControl:
         return self._mode
 
     def _check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
-        limits = self.config.limits
-        for name, value in (('position', position), ('velocity', velocity), ('effort', effort)):
-            if value is not None and not math.isfinite(value):
-                raise AxisError(f'{self._where()}: {name} {value} is not a finite number')
-        if position is not None:
-            if limits.min_position is not None and position < limits.min_position - 1e-12:
-                raise AxisError(f'{self._where()}: position {position:.6g} is below the limit '
-                                f'{limits.min_position:.6g}')
-            if limits.max_position is not None and position > limits.max_position + 1e-12:
-                raise AxisError(f'{self._where()}: position {position:.6g} is above the limit '
-                                f'{limits.max_position:.6g}')
-        if velocity is not None and limits.max_velocity is not None and abs(velocity) > limits.max_velocity + 1e-12:
-            raise AxisError(f'{self._where()}: velocity {velocity:.6g} exceeds the limit {limits.max_velocity:.6g}')
-        if effort is not None and limits.max_effort is not None and abs(effort) > limits.max_effort + 1e-12:
-            raise AxisError(f'{self._where()}: effort {effort:.6g} exceeds the limit {limits.max_effort:.6g}')
+        problem = limit_problem(self.config.limits, position, velocity, effort)
+        if problem:
+            raise AxisError(f'{self._where()}: {problem}')
 
     def check_command(self, position: float | None = None, velocity: float | None = None,
                       effort: float | None = None) -> None:

@@ -52,6 +52,7 @@ from drive_bridge.families.opendrive.alarms import alarm_text, emcy_alarm_word
 from drive_bridge.families.opendrive.options import DriveOptions
 from drive_bridge.families.opendrive.units import Units
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.model import AxisConfig, Timeouts
 
@@ -452,28 +453,18 @@ class RunLogicDriver:
                       effort: float | None = None) -> None:
         """Raise if the command cannot be applied now: position commands (none on this family),
         the wrong field for the mode, limits, the drive's INT16 range, state."""
-        for name, value in (('position', position), ('velocity', velocity), ('effort', effort)):
-            if value is not None and not math.isfinite(value):
-                raise RunLogicError(f'{self._where()}: {name} {value} is not a finite number')
         limits = self.config.limits
         if position is not None and not self._looped():
             loop = ' (or set the axis\' position_loop to close a position loop in the bridge)' \
                 if self._loop is None else ' (the axis\' position loop works in pv)'
             raise RunLogicError(f'{self._where()}: family {self.family!r} takes no position commands (no position '
                                 f'reference on the drive); command velocity in pv or effort in pt{loop}')
-        if position is not None:
-            if limits.min_position is not None and position < limits.min_position - 1e-12:
-                raise RunLogicError(f'{self._where()}: position {position:.6g} is below the limit '
-                                    f'{limits.min_position:.6g}')
-            if limits.max_position is not None and position > limits.max_position + 1e-12:
-                raise RunLogicError(f'{self._where()}: position {position:.6g} is above the limit '
-                                    f'{limits.max_position:.6g}')
+        problem = limit_problem(limits, position, velocity, effort)
+        if problem:
+            raise RunLogicError(f'{self._where()}: {problem}')
         if velocity is not None:
             if self._mode != PV:
                 raise RunLogicError(f'{self._where()}: a velocity command needs pv; mode is {mode_name(self._mode)}')
-            if limits.max_velocity is not None and abs(velocity) > limits.max_velocity + 1e-12:
-                raise RunLogicError(f'{self._where()}: velocity {velocity:.6g} exceeds the limit '
-                                    f'{limits.max_velocity:.6g}')
             if self.units.speed_raw(velocity) is None:
                 low, high = self.units.velocity_range()
                 raise RunLogicError(f'{self._where()}: velocity {velocity:.6g} is beyond the drive\'s range '
@@ -482,8 +473,6 @@ class RunLogicDriver:
         if effort is not None:
             if self._mode != PT:
                 raise RunLogicError(f'{self._where()}: an effort command needs pt; mode is {mode_name(self._mode)}')
-            if limits.max_effort is not None and abs(effort) > limits.max_effort + 1e-12:
-                raise RunLogicError(f'{self._where()}: effort {effort:.6g} exceeds the limit {limits.max_effort:.6g}')
             if self.units.torque_raw(effort) is None:
                 low, high = self.units.effort_range()
                 raise RunLogicError(f'{self._where()}: effort {effort:.6g} is beyond the drive\'s range '
