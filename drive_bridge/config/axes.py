@@ -66,7 +66,8 @@ def _mode(sec: Section, key: str, family: DriveFamily) -> int:
         sec.issues.error(sec.loc(key), f'expected a mode name ({names}) or a number -128..127, '
                                        f'got {describe(raw)}')
         return fallback
-    looped = key == 'position_mode' and 'position_loop' in sec and code in VELOCITY_MODES
+    looped = key == 'position_mode' and code in VELOCITY_MODES and (
+        'position_loop' in sec or family.default_position_loop.enabled)
     if allowed is not None and code >= 0 and code not in allowed and not looped:  # the loop makes pv/csv position modes
         names = ', '.join(mode_name(m) for m in sorted(allowed))
         kind = key.split('_')[0]
@@ -102,9 +103,9 @@ def _limits(sec: Section | None) -> AxisLimits:
                       max_effort=sec.get_number('max_effort', gt=0))
 
 
-def _position_loop(sec: Section | None) -> PositionLoopConfig:
+def _position_loop(sec: Section | None, family: DriveFamily) -> PositionLoopConfig:
     if sec is None:
-        return PositionLoopConfig()
+        return family.default_position_loop
     sec.check_keys(keys.POSITION_LOOP)
     return PositionLoopConfig(gain=sec.get_number('gain', gt=0) or 0.0,
                               following_error=sec.get_number('following_error', gt=0))
@@ -156,7 +157,7 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
                       joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
-                      position_loop=_position_loop(sec.section('position_loop')),
+                      position_loop=_position_loop(sec.section('position_loop'), family),
                       drive=_drive_options(sec, family), where=f'{file}: {loc.path}', **modes)
     slot_loc = sec.loc('slot') if 'slot' in sec else loc
     return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None

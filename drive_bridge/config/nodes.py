@@ -207,6 +207,9 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     eds_path, eds_loc = _eds_path(ctx, node, family, len(draft.axes))
     od = _load_od(ctx, eds_path, eds_loc, node_id or 1) if eds_path is not None else None
     eds_name = eds_path.name if eds_path is not None else ''
+    if od is not None:  # e.g. a modular EDS that describes one drive object: the family adds the others
+        for problem in family.prepare_object_dictionary(od, [d.axis.slot for d in draft.axes]):
+            issues.error(eds_loc, f'{eds_name}: {problem}')
     sdo_items = node.get_list('sdo', 'a list of {index, sub_index, value}') or []
     boot_sdo = parse_boot_sdo(issues, sdo_items, od, eds_name, ctx.file)
     identity = Identity(**{key: node.get_int(key, lo=0, hi=0xFFFFFFFF, allow_str=True) for key in keys.IDENTITY})

@@ -26,13 +26,15 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
+from canopen import ObjectDictionary
+
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
 
 if TYPE_CHECKING:
     from drive_bridge.families.parameters import ParameterAccess, ParameterPort
@@ -86,6 +88,8 @@ class DriveFamily:
     boot_detection: ClassVar[BootDetection] = BootDetection.BOOTUP_FRAME
     has_heartbeat: ClassVar[bool] = True  # False: the node must be guarded (config guard_time_ms)
     uses_axis_scaling: ClassVar[bool] = True  # False: the driver scales from the axis' `drive` settings
+    # the position loop of axes that give no `position_loop` (e.g. a velocity-only drive line)
+    default_position_loop: ClassVar[PositionLoopConfig] = PositionLoopConfig()
     pdo_configuration: ClassVar[PdoConfiguration] = PdoConfiguration.FREE_MAPPING
     # communication-parameter sub-indices the node has (CiA 301: 1 COB-ID, 2 type, 3 inhibit,
     # 5 event timer, 6 SYNC start); the master writes only these
@@ -102,6 +106,12 @@ class DriveFamily:
         """(RPDOs, TPDOs) used when the config gives no mapping."""
         return (), ()
 
+    def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:
+        """Adapt the loaded EDS to the node's configured axis slots before it is checked (e.g.
+        a modular EDS that describes one drive object: add the objects of the others).
+        Returns problems to report at the node's EDS (none by default)."""
+        return ()
+
     def parse_axis_options(self, options: Mapping[str, Any]) -> tuple[Mapping[str, Any], Sequence[tuple[str, str]]]:
         """Validate an axis' ``drive`` settings (the family's own keys; ``{}`` when the axis
         gives none): (the values the joint driver gets, [(key, error message)]). By default a
@@ -112,6 +122,11 @@ class DriveFamily:
     def is_bootup_emcy(self, data: bytes) -> bool:
         """With ``BootDetection.EMCY``: this EMCY payload is the node's boot-up announcement."""
         return False
+
+    def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:
+        """Steps right after boot-up, before the first SDO (identity): e.g. an NMT command a
+        node needs before it answers SDO at all."""
+        return ()
 
     def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
         """Steps after boot-up and identity, before the configured boot SDOs."""
@@ -131,9 +146,10 @@ class DriveFamily:
         return Liveness.NONE
 
     # -- PDOs --------------------------------------------------------------------------------
-    def select_pdo(self, kind: str, config: PdoConfig) -> Sequence[tuple[int, int, int]]:
+    def select_pdo(self, kind: str, config: PdoConfig) -> Sequence[tuple[int, int, int]] | None:
         """With ``PdoConfiguration.SELECT_BY_NUMBER``: the SDO writes (index, subindex, value)
-        choosing the predefined PDO that ``config`` describes (kind 'RPDO' or 'TPDO')."""
+        choosing the predefined PDO that ``config`` describes (kind 'RPDO' or 'TPDO'); None
+        maps this PDO freely instead (a drive's free PDOs)."""
         raise NotImplementedError(f'family {self.name!r} selects no predefined PDOs')
 
     def sent_on_write(self, index: int, subindex: int) -> bool:

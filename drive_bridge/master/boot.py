@@ -168,10 +168,15 @@ def _write_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str)
     node.network.unsubscribe(config.cob_id, pdo_map.on_message)
 
 
-def _select_pdo(node: NodeRuntime, config: PdoConfig, kind: str, comm_index: int) -> None:
+def _select_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str, comm_index: int) -> None:
     """A predefined PDO chosen by the family's SDO writes, then its COB-ID and transmission
-    type (and, for TPDOs, the other sub-indices the node has)."""
-    for index, subindex, value in node.family.select_pdo(kind, config):
+    type (and, for TPDOs, the other sub-indices the node has). A PDO the family does not
+    select (None: e.g. one of a drive's free PDOs) is mapped freely."""
+    selection = node.family.select_pdo(kind, config)
+    if selection is None:
+        _write_pdo(node, pdo_map, config, kind)
+        return
+    for index, subindex, value in selection:
         node.sdo.write(index, subindex, value)
     subs = node.family.pdo_comm_subindices
     cob_id = config.cob_id | (0 if config.enabled else COB_ID_INVALID)
@@ -197,7 +202,7 @@ def configure_pdos(node: NodeRuntime) -> None:
                                             f'(0x{comm_base + config.number - 1:04X})') from None
             try:
                 if node.family.pdo_configuration is PdoConfiguration.SELECT_BY_NUMBER:
-                    _select_pdo(node, config, kind, comm_base + config.number - 1)
+                    _select_pdo(node, pdo_map, config, kind, comm_base + config.number - 1)
                 else:
                     _write_pdo(node, pdo_map, config, kind)
             except SdoError as exc:
@@ -283,6 +288,7 @@ def boot_node(node: NodeRuntime, master: MasterConfig, progress: Callable[[str],
     family = node.family
     steps: tuple[tuple[str, Callable[[], None]], ...] = (
              ('boot-up', lambda: wait_for_bootup(node)),
+             *(_family_step(node, step) for step in family.boot_steps_early(node)),
              ('identity', lambda: check_identity(node)),
              *(_family_step(node, step) for step in family.boot_steps_before(node)),
              ('boot SDOs', lambda: run_boot_sdos(node)),
