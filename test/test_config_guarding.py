@@ -173,13 +173,13 @@ def test_a_family_without_heartbeat_must_be_guarded(tmp_path: Path) -> None:
         assert problems(tmp_path, f"""
             nodes:
               a: {node}}}
-        """) == ["drives.yaml: nodes.a.family: family 'test_no_heartbeat' has no heartbeat: node 'a' needs "
-                 'guard_time_ms (node guarding, e.g. 100) so that the bridge notices when it is lost']
+        """) == ["drives.yaml: nodes.a.family: family 'test_no_heartbeat' is supervised by node guarding: node 'a' "
+                 'needs guard_time_ms (e.g. 100) so that the bridge notices when it is lost']
         assert problems(tmp_path, f"""
             nodes:
               a: {node}, guard_time_ms: 100, heartbeat_producer: 50}}
-        """) == ["drives.yaml: nodes.a.heartbeat_producer: family 'test_no_heartbeat' has no heartbeat (no 0x1017): "
-                 "supervise node 'a' with guard_time_ms (node guarding) instead"]
+        """) == ["drives.yaml: nodes.a.heartbeat_producer: family 'test_no_heartbeat' is supervised by node guarding, "
+                 "not heartbeat: supervise node 'a' with guard_time_ms instead"]
         config = load_yaml(tmp_path, f"""
             defaults: {{heartbeat_producer: 50}}
             nodes:

@@ -162,7 +162,8 @@ def test_node_guarding_and_the_two_modes_are_required() -> None:
     data = example()
     del data['nodes']['opendrive']['guard_time_ms']
     del data['nodes']['opendrive']['life_time_factor']
-    assert any("family 'opendrive' has no heartbeat" in p and 'guard_time_ms' in p for p in problems(data))
+    assert any("family 'opendrive' is supervised by node guarding" in p and 'guard_time_ms' in p
+               for p in problems(data))
     data = example()
     axis_data(data)['mode'] = 'csp'
     assert any("family 'opendrive' does not accept mode csp (it takes pv, pt)" in p for p in problems(data))

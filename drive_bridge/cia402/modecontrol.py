@@ -172,7 +172,8 @@ class ModeControl:
             self._loop = PositionLoop(self.config.position_loop, self.config.limits)
         scaling = self.config.scaling
         position, velocity = self._loop_target
-        out = self._loop.step(position, velocity, scaling.position_to_si(actual), self.cycle_period)
+        out = self._loop.step(position, velocity, scaling.position_to_si(actual), self.cycle_period,
+                              abs(scaling.position_factor))
         if out.exceeded and self._source is not None:  # supervised while a trajectory streams;
             self._halt = True                            # a direct command is a step on purpose
             self._source = None

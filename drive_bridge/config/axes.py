@@ -270,12 +270,17 @@ def parse_axes(node: Section, name: str, family: DriveFamily, ros_defaults: bool
     return drafts
 
 
-def check_axis_objects(issues: Issues, od: ObjectDictionary, eds_name: str, draft: AxisDraft) -> bool:
-    """The CiA 402 objects the core needs for the axis exist at its slot's offset (False: some do not)."""
+def check_axis_objects(issues: Issues, od: ObjectDictionary, eds_name: str, draft: AxisDraft,
+                       family: DriveFamily | None = None) -> bool:
+    """The CiA 402 objects the core needs for the axis exist at its slot's offset (False: some do not);
+    the position actual object is the one the family names (``axis_objects``: 0x6063 on some drives)."""
     slot = draft.axis.slot
-    missing = [obj.for_axis(index, slot) for index in CORE_OBJECTS if obj.for_axis(index, slot) not in od]
+    position = (family.axis_objects(slot).position_actual[0] if family is not None
+                else obj.for_axis(obj.POSITION_ACTUAL, slot))
+    needed = [obj.for_axis(index, slot) for index in CORE_OBJECTS if index != obj.POSITION_ACTUAL] + [position]
+    missing = [index for index in needed if index not in od]
     labels = [f'{hex_index(index)} {known_name(index)}' for index in missing]
-    if len(missing) == len(CORE_OBJECTS):
+    if len(missing) == len(needed):
         issues.error(draft.loc, f'none of the CiA 402 objects of axis slot {slot} are in {eds_name} '
                                 f'({", ".join(labels)}); is it a CiA 402 device, and is the slot right?')
         return False

@@ -62,12 +62,12 @@ def parse_supervision(node: Section, name: str, family: str = '', has_heartbeat:
     if not has_heartbeat:
         if node.own('heartbeat_producer') and (node.get_int('heartbeat_producer', 0) or 0):
             node.issues.error(node.loc('heartbeat_producer'),
-                              f"family '{family}' has no heartbeat (no 0x1017): supervise node '{name}' with "
-                              'guard_time_ms (node guarding) instead')
+                              f"family '{family}' is supervised by node guarding, not heartbeat: supervise node "
+                              f"'{name}' with guard_time_ms instead")
         elif not guard:
             node.issues.error(node.loc('family') if 'family' in node else node.where,
-                              f"family '{family}' has no heartbeat: node '{name}' needs guard_time_ms "
-                              '(node guarding, e.g. 100) so that the bridge notices when it is lost')
+                              f"family '{family}' is supervised by node guarding: node '{name}' needs "
+                              'guard_time_ms (e.g. 100) so that the bridge notices when it is lost')
         return Supervision(0, guard, factor)
     producer = node.get_int('heartbeat_producer', 0 if guard else DEFAULT_HEARTBEAT_MS, lo=0, hi=0xFFFF) or 0
     if not (guard and producer):

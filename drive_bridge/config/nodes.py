@@ -224,10 +224,15 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     # a wrong axis count or slot already explains why the family's map cannot fit: say it once
     axes_fit = False
     if not (too_many and not explicit_pdos):
-        axes_fit = all([check_axis_objects(issues, od, eds_name, axis) for axis in draft.axes]) \
+        axes_fit = all([check_axis_objects(issues, od, eds_name, axis, family) for axis in draft.axes]) \
             if family.has_cia402 else True
     draft.pdos = [resolve_pdo(issues, od, eds_name, p) if axes_fit or not p.from_family else p
                   for p in draft.pdos]
+    pdo_loc = next((node.loc(k) for k in ('rpdo', 'tpdo') if k in node), node.where)
+    for problem in family.check_pdos([p.config for p in draft.pdos if p.kind == 'rpdo'],
+                                     [p.config for p in draft.pdos if p.kind == 'tpdo'],
+                                     [d.axis.slot for d in draft.axes]):
+        issues.error(pdo_loc, problem)
     check_guarding_objects(node, supervision, od, eds_name, sdo_items)
     draft.config = NodeConfig(
         name=name, node_id=node_id, family=family.name, od=od, eds_path=eds_path, identity=identity,

@@ -112,6 +112,13 @@ class DriveFamily:
         Returns problems to report at the node's EDS (none by default)."""
         return ()
 
+    def check_pdos(self, rpdos: Sequence[PdoConfig], tpdos: Sequence[PdoConfig],
+                   slots: Sequence[int]) -> Sequence[str]:
+        """The node's resolved PDOs (explicit or the family's default) against the drive's own PDO
+        rules that its EDS cannot say (e.g. how many valid PDOs one device receives); ``slots``
+        the node's axis slots. Returns problems to report at the node (none by default)."""
+        return ()
+
     def parse_axis_options(self, options: Mapping[str, Any]) -> tuple[Mapping[str, Any], Sequence[tuple[str, str]]]:
         """Validate an axis' ``drive`` settings (the family's own keys; ``{}`` when the axis
         gives none): (the values the joint driver gets, [(key, error message)]). By default a

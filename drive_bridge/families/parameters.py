@@ -112,6 +112,11 @@ class ParameterAccess(ABC):
     def save(self, drive_object: int = 0) -> str:
         """Store the parameters in the drive's non-volatile memory; returns what was done."""
 
+    def for_slot(self, slot: int) -> ParameterAccess:
+        """This access as the joint in axis ``slot`` of the node sees it: ``drive_object`` 0 then
+        means that joint's own drive object (a node with several). By default the same access."""
+        return self
+
 
 def format_number(value: float) -> str:
     """A number as a drive's ASCII parser takes it: no exponent, at most 3 decimals."""

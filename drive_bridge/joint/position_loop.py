@@ -32,9 +32,14 @@ class PositionLoop:
         """Start again from ``velocity`` (the drive's actual velocity when a stream begins)."""
         self.last_velocity = velocity
 
-    def step(self, desired_position: float, desired_velocity: float, measured: float, dt: float) -> LoopOutput:
+    def step(self, desired_position: float, desired_velocity: float, measured: float, dt: float,
+             resolution: float = 0.0) -> LoopOutput:
+        """``resolution``: SI of one unit of the measured position; holding (no desired velocity),
+        an error within it is no error (the set-point is then exactly 0, not a dither of
+        +-gain x one unit)."""
         error = desired_position - measured
-        correction = self.config.gain * error
+        holding = desired_velocity == 0.0 and abs(error) <= resolution
+        correction = 0.0 if holding else self.config.gain * error
         accel = self.limits.max_acceleration
         if accel is not None:  # never ask for more than the joint can brake to rest within the error
             reach = math.sqrt(2.0 * accel * abs(error))

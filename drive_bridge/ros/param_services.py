@@ -3,7 +3,8 @@ their vendor gives them, through the drive family's parameter access
 (:mod:`drive_bridge.families.parameters`, obtained with ``Master.parameter_access``).
 
 The target is a joint (the node of its axis) or, when ``joint`` is empty, a configured
-``node_id``; ``drive_object`` selects a drive object of nodes that have several. Unknown
+``node_id``; ``drive_object`` selects a drive object of nodes that have several (0: the
+joint's own, or the node's first). Unknown
 joints and nodes, families without parameter access and every ParameterError answer
 ``success = False`` with the error in ``message``. As in :mod:`drive_bridge.ros.services`,
 handlers await the blocking work in a thread pool, in a reentrant callback group, so the
@@ -59,7 +60,7 @@ class ParameterServices:
             axis = self.master.axes.get(joint)
             if axis is None:
                 raise ParameterError(f'unknown joint {joint!r}; this bus has {", ".join(self.master.axes) or "none"}')
-            return self.master.parameter_access(axis.node_id), f'joint {joint}: '
+            return self.master.parameter_access(axis.node_id).for_slot(axis.config.slot), f'joint {joint}: '
         if not node_id:
             raise ParameterError('no target: give a joint, or a node_id (1..127) when joint is empty')
         return self.master.parameter_access(node_id), ''

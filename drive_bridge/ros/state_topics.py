@@ -45,7 +45,8 @@ class StateTopics:
         self.diagnostics = node.create_publisher(DiagnosticArray, '/diagnostics', QoSProfile(depth=10))
         self.joints = list(master.axes)
         self._channel = str(master.config.bus.channel)
-        self._joint_of_node = {n.node_id: [a.joint for a in n.config.axes] for n in master.nodes.values()}
+        # node id -> axis slot -> joint (an EMCY names the slot; the config may list slots in any order)
+        self._joint_of_node = {n.node_id: {a.slot: a.joint for a in n.config.axes} for n in master.nodes.values()}
         self._min_interval = 1.0 / params.publish_rate if params.publish_rate > 0 else 0.0
         self._last_joint_states = 0.0
         self._frame_subscribers = 0
@@ -121,9 +122,11 @@ class StateTopics:
 
     # -- EMCY and frames (CAN threads) -----------------------------------------------------------
     def on_emcy(self, event: EmcyEvent) -> None:
-        joints = self._joint_of_node.get(event.node_id, [])
-        joint = joints[event.slot] if event.slot is not None and event.slot < len(joints) else \
-            (joints[0] if len(joints) == 1 else '')
+        joints = self._joint_of_node.get(event.node_id, {})
+        if event.slot is not None:
+            joint = joints.get(event.slot, '')
+        else:
+            joint = next(iter(joints.values())) if len(joints) == 1 else ''
         self.emcy.publish(emcy_msg(event, joint))
         # one call site per severity (rclpy), as the drive family reads the EMCY
         if event.is_reset or event.severity is Severity.INFO:

@@ -103,7 +103,9 @@ class Axis402:
       when a mode change takes effect, and the mode objects;
     - :meth:`on_controlword` -- a written controlword;
     - :meth:`on_transition` -- after every device state transition;
-    - :meth:`compute_statusword`, :meth:`param`, :meth:`reset`, :meth:`advance`.
+    - :meth:`compute_statusword`, :meth:`param`, :meth:`reset`, :meth:`advance`;
+
+    and a drive acknowledges its faults by other means through :meth:`acknowledge_fault`.
     """
 
     def __init__(self, drive: AxisDrive, slot: int, options: dict[str, Any]) -> None:
@@ -483,6 +485,14 @@ class Axis402:
             self._goto(State.FAULT)  # nothing to stop, or coast
             return
         self._begin_stop(_Stop('fault', self._ramp_deceleration(option), State.FAULT))
+
+    def acknowledge_fault(self) -> bool:
+        """A fault reset from another source than controlword bit 7 (e.g. a vendor's
+        acknowledge object): as the bit 7 edge. True if the axis left Fault."""
+        if self.state is not State.FAULT:
+            return False
+        self._fault_reset()
+        return self.state is not State.FAULT
 
     def _fault_reset(self) -> None:
         if self.persistent_fault or self.drive.fault_cause_persists(self):

@@ -32,7 +32,8 @@ class SimDrive402(SimulatedSlave):
         super().__init__(node, options=options)
         count = self._axis_count(node)
         self.axes: tuple[Axis402, ...] = tuple(
-            self.AXIS_CLASS(self, slot, {name: self.options[name][slot] for name in AXIS_OPTIONS})
+            self.AXIS_CLASS(self, slot, {name: self.options[name][slot]
+                                         for name, spec in self.OPTIONS.items() if spec.per_axis})
             for slot in range(count))
 
     @staticmethod

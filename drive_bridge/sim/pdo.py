@@ -125,7 +125,7 @@ class PdoEngine:
     """All PDOs of one slave. Every method is called with the slave's lock held.
 
     Hooks a device model's PDO rules override: :meth:`validate` (parameter writes),
-    :meth:`mapping_locked`, :meth:`due_rpdos`, :meth:`value_getter`, :meth:`has_changed`,
+    :meth:`mapping_locked`, :meth:`accepted_rpdos`, :meth:`due_rpdos`, :meth:`value_getter`, :meth:`has_changed`,
     :meth:`acyclic_due`.
     """
 
@@ -223,6 +223,11 @@ class PdoEngine:
         if value != 0:
             self._check_entry(pdo, value)
 
+    def accepted_rpdos(self, valid: list[Pdo]) -> list[Pdo]:
+        """Hook: of the valid RPDOs (in number order), those the device receives. Default: all
+        (a device with a hardware limit on receive PDOs serves only some)."""
+        return valid
+
     def mapping_locked(self, pdo: Pdo, cob: int) -> bool:
         """Hook: whether the PDO's COB-ID, mapping, inhibit time and SYNC start value are locked
         against changes (CiA 301: while the PDO is valid, ``cob`` its 0x14xx/0x18xx:1)."""
@@ -293,7 +298,7 @@ class PdoEngine:
         return functools.partial(self._store.values.__getitem__, k)
 
     def _refresh(self) -> None:
-        wanted = {p.cob_id: p for p in self.rpdos.values() if p.valid}
+        wanted = {p.cob_id: p for p in self.accepted_rpdos([p for p in self.rpdos.values() if p.valid])}
         for cob in set(self._rx_by_cob) - set(wanted):
             self._unsubscribe(cob, self.on_rpdo)
         for cob in set(wanted) - set(self._rx_by_cob):

@@ -77,8 +77,12 @@ class SimulatedSlave(CommFaultInjection):
     - :meth:`supervise` -- the device's own periodic checks;
     - :meth:`on_heartbeat_lost` / :meth:`on_heartbeat_recovered` -- heartbeat consumer events;
     - :meth:`on_life_guarding_lost` / :meth:`on_life_guarding_recovered` -- life guarding events;
+    - :meth:`answers_guarding` -- whether guarding RTRs are answered now;
     - :meth:`life_time_limit` -- the device's ceiling of the node life time;
     - :meth:`expedited_download` -- the data an expedited SDO download carries.
+
+    and acts by itself through :meth:`set_nmt_state`, :meth:`restart` and
+    :meth:`reload_communication_objects`.
     """
 
     OPTIONS: dict[str, OptionSpec] = SLAVE_OPTIONS
@@ -312,17 +316,45 @@ class SimulatedSlave(CommFaultInjection):
             if command is None or command not in self.NMT_COMMANDS:
                 return
             if command is NmtCommand.START:
-                if self._nmt is not NmtState.OPERATIONAL:
-                    self._nmt = NmtState.OPERATIONAL
-                    self.pdo.enter_operational()
+                self.set_nmt_state(NmtState.OPERATIONAL)
             elif command in (NmtCommand.STOP, NmtCommand.ENTER_PRE_OPERATIONAL):
-                if self._nmt is NmtState.OPERATIONAL:
-                    self.pdo.leave_operational()
-                self._nmt = NmtState.STOPPED if command is NmtCommand.STOP else NmtState.PRE_OPERATIONAL
+                self.set_nmt_state(NmtState.STOPPED if command is NmtCommand.STOP else NmtState.PRE_OPERATIONAL)
             elif command is NmtCommand.RESET_NODE:
                 self._reset(application=True)
             elif command is NmtCommand.RESET_COMMUNICATION:
                 self._reset(application=False)
+
+    def set_nmt_state(self, state: NmtState) -> None:
+        """Enter OPERATIONAL, STOPPED or PRE-OPERATIONAL as on the NMT command (PDOs start or
+        stop); also for a device that changes state by itself after boot-up or as an error
+        reaction. Ignored while powered off or initialising."""
+        with self._lock:
+            if self._nmt in (NmtState.OFF, NmtState.INITIALISING) or state == self._nmt:
+                return
+            if state not in (NmtState.OPERATIONAL, NmtState.STOPPED, NmtState.PRE_OPERATIONAL):
+                raise ValueError(f'{self.name}: {state!r} is not a state a node enters by command')
+            if self._nmt is NmtState.OPERATIONAL:
+                self.pdo.leave_operational()
+            self._nmt = state
+            if state is NmtState.OPERATIONAL:
+                self.pdo.enter_operational()
+
+    def restart(self, application: bool = True) -> None:
+        """The device restarts by itself (e.g. a controller reboot after a configuration
+        change): as NMT reset node (``application``) or reset communication, boot-up frame
+        included. Ignored while powered off."""
+        with self._lock:
+            if self._nmt is not NmtState.OFF:
+                self._reset(application)
+
+    def reload_communication_objects(self) -> None:
+        """Communication objects were replaced wholesale (a device's restore of defaults that
+        takes effect at once): PDOs, SYNC subscription, heartbeat producer and consumer follow."""
+        with self._lock:
+            self.pdo.rebuild()
+            self._update_sync_subscription()
+            self._update_consumer()
+            self._restart_heartbeat()
 
     def _rpdo_allowed(self) -> bool:
         return self._nmt is NmtState.OPERATIONAL and not self.faults.muted and not self.faults.drop_rpdos
@@ -416,6 +448,8 @@ class SimulatedSlave(CommFaultInjection):
             with self._lock:
                 if self.faults.muted or self._nmt in (NmtState.OFF, NmtState.INITIALISING):
                     return
+                if not self.answers_guarding():
+                    return
                 if not self.faults.guarding_silent:
                     reply = self._guarding.reply(int(self._nmt), self.faults.guarding_toggle_repeated)
                     self.send(HEARTBEAT_BASE + self.node_id, reply)
@@ -435,6 +469,11 @@ class SimulatedSlave(CommFaultInjection):
         """Hook: RTRs arrive again after a life guarding event, or a reset ends it. Default:
         its error is gone."""
         self.emcy.clear('guarding')
+
+    def answers_guarding(self) -> bool:
+        """Hook: whether guarding RTRs are answered (and feed life guarding) now. Default: always
+        (a device that uses heartbeat instead while 0x1017 != 0 says no then)."""
+        return True
 
     def life_time_limit(self) -> float:
         """Hook: s, the longest node life time the device supports (0x100C x 0x100D is clamped
