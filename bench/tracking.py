@@ -1,15 +1,20 @@
 """Tracking benchmark: how accurately simulated drives follow trajectories streamed by the
 bridge, per streaming strategy and SYNC period.
 
-For each strategy (cyclic synchronous position, linear interpolated position, PVT) and SYNC
+For each strategy (cyclic synchronous position, linear interpolated position, PVT, and the
+bridge's own position loop over velocity set-points on a SINAMICS S120 in pv) and SYNC
 period, 4 axes run two smooth trajectories (a quintic point-to-point move and a sum of
-sines). The drive's interpolated position (demand, 0x6062) is recorded inside each
-simulated drive at every SYNC and compared with the ideal trajectory at the SYNC's time on
-the bridge's stream clock; "stream delay" is how far that clock fell behind wall time
-because the cycle thread stalled for more than two periods (it then delays the motion
-rather than jumping the set-point).
+sines). The drive's interpolated position (demand, 0x6062; for the velocity-only S120 its
+actual position) is recorded inside each simulated drive at every SYNC and compared with
+the ideal trajectory at the SYNC's time on the bridge's stream clock; "stream delay" is how
+far that clock fell behind wall time because the cycle thread stalled for more than two
+periods (it then delays the motion rather than jumping the set-point).
 
-    .venv/bin/python -m bench tracking [--periods 1 2 4 10] [--strategies csp ip pvt]
+    .venv/bin/python -m bench tracking [--periods 1 2 4 10] [--strategies csp ip pvt s120-pv]
+
+The S120 runs with its CAN sampling time p8848 at half the SYNC period (the drive needs
+RPDOs no faster than 2 x p8848; p8848 >= 1 ms, so only periods >= 2 ms), on the real
+Siemens EDS of ../shared/realdata (skipped when it is not there).
 """
 from __future__ import annotations
 
@@ -29,6 +34,8 @@ from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 
 COUNTS_PER_REV = {'generic_402': 2 ** 16, 'akd': 2 ** 20}  # AKD: 2^20 increments per revolution
+S120_EDS = (Path(__file__).resolve().parents[2] / 'shared' / 'realdata' / 'eds'
+            / 'SINAMICS_S120_V48__SINAMICS_S120.eds')
 AXES = 4
 START_DELAY = 0.3  # s between submitting and the trajectory start
 Ideal = Callable[[float], tuple[float, float, float]]  # t from start -> (position, velocity, acceleration)
@@ -60,11 +67,26 @@ TRAJECTORIES: dict[str, tuple[float, list[Ideal], float]] = {
     'sum of sines': (2.0, [sines(0.1 * k, 1.0, 0.05, 3.0) for k in (1, 2, 3, 4)], 0.02),
 }
 STRATEGIES = {'csp': ('generic_402', 'csp', 'linear'), 'ip': ('generic_402', 'ip', 'linear'),
-              'pvt': ('akd', 'ip', 'pvt')}
+              'pvt': ('akd', 'ip', 'pvt'), 's120-pv': ('sinamics_s120', 'pv', 'linear')}
+VELOCITY_ONLY = {'s120-pv'}  # measured at the drive's actual position (it has no demand position)
+
+
+def unavailable(strategy: str, period_ms: float) -> str:
+    """Why a case cannot run here ('' when it can)."""
+    family = STRATEGIES[strategy][0]
+    if family not in family_names():
+        return f'drive family {family!r} is not available'
+    if family == 'sinamics_s120' and not S120_EDS.is_file():
+        return f'the Siemens EDS {S120_EDS} is not there'
+    if family == 'sinamics_s120' and period_ms < 2:
+        return 'the S120 needs SYNC >= 2 x p8848 and p8848 >= 1 ms'
+    return ''
 
 
 def bus_data(strategy: str, period_ms: float, channel: str) -> dict:
     family, mode, interpolation = STRATEGIES[strategy]
+    if family == 'sinamics_s120':
+        return s120_bus_data(period_ms, channel)
     axis = {'mode': mode, 'interpolation': interpolation,
             'scaling': {'counts_per_revolution': COUNTS_PER_REV[family], 'rated_torque': 1.0}}
     return {
@@ -73,6 +95,20 @@ def bus_data(strategy: str, period_ms: float, channel: str) -> dict:
         'nodes': {f'drive{i}': {'node_id': i, 'family': family, 'axes': [{'joint': f'j{i}', **axis}]}
                   for i in range(1, AXES + 1)},
         'simulation': {'enabled': True},
+    }
+
+
+def s120_bus_data(period_ms: float, channel: str) -> dict:
+    """Four one-DO S120 nodes in pv, guarded, the bridge closing the position loop; the
+    simulated drives' p8848 is half the SYNC period and their ramps are 1 s to n_max."""
+    axis = {'mode': 'pv', 'limits': {'max_velocity': 10.0}}
+    return {
+        'bus': {'interface': 'virtual', 'channel': channel},
+        'master': {'node_id': 127, 'sync_period': round(period_ms * 1000)},
+        'nodes': {f'drive{i}': {'node_id': i, 'family': 'sinamics_s120', 'dcf': str(S120_EDS), 'guard_time_ms': 100,
+                                'axes': [{'joint': f'j{i}', **axis}]} for i in range(1, AXES + 1)},
+        'simulation': {'enabled': True, 'nodes': {f'drive{i}': {'p8848': period_ms / 2, 'ramp_up_time': 1.0,
+                                                                'ramp_down_time': 1.0} for i in range(1, AXES + 1)}},
     }
 
 
@@ -104,9 +140,10 @@ class Row:
     delay_ms: float
 
 
-def record_demand(sim: SimulatedBus, executor: TrajectoryExecutor) -> dict[int, list[tuple[float, int, float]]]:
-    """(SYNC timestamp, demand position, stream delay) of each simulated drive's axis 0
-    after every SYNC step."""
+def record_demand(sim: SimulatedBus, executor: TrajectoryExecutor,
+                  actual: bool = False) -> dict[int, list[tuple[float, int, float]]]:
+    """(SYNC timestamp, demand (or actual) position, stream delay) of each simulated drive's
+    axis 0 after every SYNC step."""
     records: dict[int, list[tuple[float, int, float]]] = {}
     for node_id, drive in sim.drives.items():
         log: list[tuple[float, int]] = []
@@ -116,7 +153,8 @@ def record_demand(sim: SimulatedBus, executor: TrajectoryExecutor) -> dict[int, 
         def step(dt: float, sync: bool, drive=drive, log=log, original=original) -> None:
             original(dt, sync)
             if sync:
-                log.append((drive._prev_sync_stamp, drive.axes[0].demand_position, executor.lag))
+                axis = drive.axes[0]
+                log.append((drive._prev_sync_stamp, axis.position if actual else axis.demand_position, executor.lag))
         drive._model_step = step
     return records
 
@@ -138,7 +176,7 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
                                       pvt_segment=max(0.01, round(2 * period, 3)),
                                       pvt_lookahead=max(0.05, 6 * period))
         master.add_cycle_listener(executor.check)
-        records = record_demand(sim, executor)
+        records = record_demand(sim, executor, actual=strategy in VELOCITY_ONLY)
         traffic_before, since = master.traffic.traffic(), time.monotonic()
         skipped_before = master.sync.skipped if master.sync else 0
         start = time.time() + START_DELAY
@@ -159,7 +197,8 @@ def run_case(strategy: str, period_ms: float, name: str, channel: str) -> Row:
                     errors.append(demand * factor - ideals[node_id - 1](stamp - lag - start)[0])
                     delay = max(delay, lag)
         underflows = emcy_codes.count(0x8585)
-        overflows = emcy_codes.count(0x8584) + sum(d.axes[0].ip.overflows for d in sim.drives.values())
+        overflows = emcy_codes.count(0x8584) + sum(getattr(d.axes[0], 'ip', None) and d.axes[0].ip.overflows or 0
+                                                   for d in sim.drives.values())
         if handle is not None and handle.state == 'aborted':
             print(f'  note: {strategy} {period_ms} ms {name}: aborted: {handle.reason}')
         return Row(strategy, period_ms, name,
@@ -203,10 +242,11 @@ def main(argv: list[str] | None = None) -> None:
     options = parser.parse_args(argv)
     rows = []
     for strategy in options.strategies:
-        if STRATEGIES[strategy][0] not in family_names():
-            print(f'skipping {strategy}: drive family {STRATEGIES[strategy][0]!r} is not available')
-            continue
         for period in options.periods:
+            why = unavailable(strategy, period)
+            if why:
+                print(f'skipping {strategy} at {period:g} ms: {why}')
+                continue
             for name in options.trajectories:
                 runs = [run_case(strategy, period, name, f'bench-{strategy}-{period}-{name}-{time.monotonic_ns()}')
                         for _ in range(max(1, options.repeat))]
