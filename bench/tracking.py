@@ -107,8 +107,10 @@ def s120_bus_data(period_ms: float, channel: str) -> dict:
         'master': {'node_id': 127, 'sync_period': round(period_ms * 1000)},
         'nodes': {f'drive{i}': {'node_id': i, 'family': 'sinamics_s120', 'dcf': str(S120_EDS), 'guard_time_ms': 100,
                                 'axes': [{'joint': f'j{i}', **axis}]} for i in range(1, AXES + 1)},
-        'simulation': {'enabled': True, 'nodes': {f'drive{i}': {'p8848': period_ms / 2, 'ramp_up_time': 1.0,
-                                                                'ramp_down_time': 1.0} for i in range(1, AXES + 1)}},
+        # commissioned drives: OFF3 when the bridge is lost (p8641 = 3), ramps 1 s to n_max
+        'simulation': {'enabled': True, 'nodes': {f'drive{i}': {'p8641': 3, 'p8848': period_ms / 2,
+                                                                'ramp_up_time': 1.0, 'ramp_down_time': 1.0}
+                                                  for i in range(1, AXES + 1)}},
     }
 
 
