@@ -287,8 +287,9 @@ def test_disable_sends_reference_zero_and_run_low_in_one_rpdo_with_the_other_bit
         assert rpdos(sniffer)[-1] == (EXTRA_BIT | RUN, raw, 0)
         mark = sniffer.mark
         axis.disable(timeout=2.0)
-        after = rpdos(sniffer, mark)
-        changed = next(f for f in after if f != (EXTRA_BIT | RUN, raw, 0))
+        # the sniffer sees the frames on its own thread: wait for the first one that changed
+        changed = eventually(lambda: next((f for f in rpdos(sniffer, mark) if f != (EXTRA_BIT | RUN, raw, 0)), None),
+                             1.0, 'the disabling RPDO')
         assert changed == (EXTRA_BIT, 0, 0)  # one frame: RUN low and 0x201A = 0 together
         assert not drive.run_input and axis.drive_state is DriveState.DISABLED
 

@@ -197,7 +197,8 @@ def test_commands_dead_man_halt_disable_and_refusals(bench: Bench) -> None:
     assert bench.rpdos()[-1] == (RUN, raw, 0)
     mark = bench.sniffer.mark
     assert bench.axis('disable').success
-    changed = next(f for f in bench.rpdos(mark) if f != (RUN, raw, 0))
+    changed = wait_for(lambda: next((f for f in bench.rpdos(mark) if f != (RUN, raw, 0)), None), 1,
+                       'the disabling RPDO')  # the sniffer sees frames on its own thread
     assert changed == (0, 0, 0)
     assert not drive.run_input
     # refused, naming the family
