@@ -337,3 +337,14 @@ def test_bad_command_messages_are_refused_with_the_reason(ros: RosHarness, bridg
     assert error.data.startswith(f'~/{topic}: refused: ') and reason in error.data, error.data
     time.sleep(0.2)
     assert all(abs(a.snapshot().position - before[j]) < 1e-4 for j, a in bridge.master.axes.items())
+
+
+def test_command_joints_takes_a_string_list(ros: RosHarness) -> None:
+    """The parameter defaults to every joint (empty list); a stack gives the order it sends."""
+    text = yaml.safe_dump(demo_data(), sort_keys=False)
+    node = BusNode(context=ros.context, node_name='drive_bridge_cj', parameter_overrides=[
+        Parameter('config_yaml', value=text), Parameter('command_joints', value=['lift_joint', 'base_joint'])])
+    try:
+        assert node.params.command_joints == ('lift_joint', 'base_joint')
+    finally:
+        node.close()

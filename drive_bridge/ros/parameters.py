@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from drive_bridge.errors import DriveBridgeError
 
@@ -70,8 +71,10 @@ def declare(node: Node) -> BridgeParameters:
         if isinstance(default, tuple):
             from rcl_interfaces.msg import ParameterType
             descriptor.type = ParameterType.PARAMETER_STRING_ARRAY
+        # an empty list default would make rclpy infer a byte array: declare string arrays by type
+        declared = Parameter.Type.STRING_ARRAY if isinstance(default, tuple) and not default else declared_default
         try:
-            value = node.declare_parameter(f.name, declared_default, descriptor).value
+            value = node.declare_parameter(f.name, declared, descriptor).value
         except ParameterException as exc:
             problems.append(f'parameter {f.name}: {exc}')
             continue
