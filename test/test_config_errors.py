@@ -361,13 +361,13 @@ def test_unknown_family_and_driver(tmp_path: Path) -> None:
           b: {node_id: 2, driver: "ros2_canopen::Cia402Drive"}
     """) == [
         "drives.yaml: nodes.a.family: expected one of 'akd', 'generic_301', 'generic_402', 'opendrive', "
-        "'sinamics_s120', got 'generic402' (did you mean 'generic_402'?)",
+        "'servostar', 'sinamics_s120', got 'generic402' (did you mean 'generic_402'?)",
         "drives.yaml: nodes.b.driver: unknown ros2_canopen driver 'ros2_canopen::Cia402Drive' (did you mean "
         "'ros2_canopen::Cia402Driver'?); drive_bridge maps ros2_canopen::Cia402Driver, "
         'ros2_canopen::LifecycleCia402Driver, ros2_canopen::MotionControllerDriver, '
         'ros2_canopen::LifecycleMotionControllerDriver, ros2_canopen::ProxyDriver, '
         'ros2_canopen::LifecycleProxyDriver; or give family: one of akd, generic_301, generic_402, opendrive, '
-        'sinamics_s120',
+        'servostar, sinamics_s120',
     ]
 
 

@@ -17,7 +17,7 @@ import threading
 import time
 from collections.abc import Callable
 
-from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402 import objects as obj, statemachine as sm
 from drive_bridge.cia402.modecontrol import PP_IDLE, AxisError, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
@@ -85,6 +85,7 @@ class Axis(ModeControl):
         self._halt = False
         self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
         self._disable_on_return = False  # after the node was configured again (on_node_reset)
+        self._last_state = State.UNKNOWN  # the state seen by the last cycle
         self._mode = config.mode
         self._pp_phase = PP_IDLE  # profile position set-point handshake
         self._pp_done = 0.0  # statusword stamp when the last handshake completed
@@ -139,7 +140,12 @@ class Axis(ModeControl):
     @property
     def state(self) -> State:
         statusword = self._value('statusword')
-        return State.UNKNOWN if statusword is None else sm.state_from_statusword(int(statusword))
+        return State.UNKNOWN if statusword is None else self._state_of(int(statusword))
+
+    def _state_of(self, statusword: int) -> State:
+        """The device state this statusword shows (a family whose drive has no Fault state in
+        the statusword reports its faults here)."""
+        return sm.state_from_statusword(statusword)
 
     def _write(self, name: str, value: int | float) -> None:
         key = self.key[name]
@@ -153,8 +159,9 @@ class Axis(ModeControl):
         if statusword is None:
             return
         statusword = int(statusword)
-        state = sm.state_from_statusword(statusword)
+        state = self._state_of(statusword)
         with self._cond:
+            self._notice_drop_out(state)
             command = self._device_command(state)
             mode_bits = self._mode_bits(state, statusword)
             controlword = command | mode_bits | (sm.CW_HALT if self._halt else 0)
@@ -170,6 +177,16 @@ class Axis(ModeControl):
                 self._feeder.on_cycle(now, self)
             elif self._ip_point is not None:  # every cycle, even unchanged: one write is one point
                 self.node.write(*self.key['ip_position'], self._ip_point)
+
+    def _notice_drop_out(self, state: State) -> None:
+        """A drive that leaves operation enabled by itself (a fault, its enable input, a
+        drive-side stop) is not walked back by the bridge: the enable intent is dropped and
+        an explicit enable is needed."""
+        if self._last_state is State.OPERATION_ENABLED and state is not State.OPERATION_ENABLED \
+                and self._target_state is State.OPERATION_ENABLED:
+            self._target_state = None
+            self._message = f'left operation enabled by itself ({state.label}): enable it again to move'
+        self._last_state = state
 
     def on_node_reset(self) -> None:
         """The node is configured again (it rebooted, or answers again after it was lost):
@@ -295,11 +312,12 @@ class Axis(ModeControl):
 
     # -- state ------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:
-        history = self.node.emcy_history()[self._reset_emcy_count:]
-        for event in reversed(history):
-            if not event.is_reset and event.slot in (None, self.config.slot):
-                return event
-        return None
+        """The newest EMCY of this axis since its last fault reset that explains it: the newest
+        error, else the newest warning (a later warning does not hide the fault's cause)."""
+        history = [e for e in self.node.emcy_history()[self._reset_emcy_count:]
+                   if not e.is_reset and e.slot in (None, self.config.slot)]
+        errors = [e for e in history if e.severity is Severity.ERROR]
+        return errors[-1] if errors else (history[-1] if history else None)
 
     def feedback(self) -> tuple[bool, float, float, float, float]:
         """(available, position, velocity, effort, stamp) in SI: the cheap path for joint states."""

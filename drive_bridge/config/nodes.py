@@ -215,7 +215,7 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     identity = Identity(**{key: node.get_int(key, lo=0, hi=0xFFFFFFFF, allow_str=True) for key in keys.IDENTITY})
     supervision = parse_supervision(node, name, family.name, family.has_heartbeat)
     consumer = _heartbeats(ctx, node, supervision)
-    reset = node.get_bool('reset_communication', True)
+    reset = node.get_bool('reset_communication', family.nmt_reset_communication)
     timeouts = _timeouts(node)
     if node_id is not None:
         draft.pdos = _pdos(ctx, node, name, node_id, family, draft.axes, defaults_allowed=not too_many)

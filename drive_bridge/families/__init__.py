@@ -21,6 +21,7 @@ from drive_bridge.families import (
                                              generic402 as _generic402,  # noqa: F401
                                              opendrive as _opendrive,  # noqa: F401
                                              s120 as _s120,  # noqa: F401
+                                             servostar as _servostar,  # noqa: F401
 )
 
 __all__ = ['DATA_DIR', 'ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'Liveness',

@@ -7,7 +7,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 
 | question                         | hook                                                   |
 |----------------------------------|--------------------------------------------------------|
-| how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``                 |
+| how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``,                |
+|                                  | ``bootup_emcy_is_ambiguous``, ``nmt_reset_communication`` |
 | extra boot steps                 | ``boot_steps_before``, ``boot_steps_after``            |
 | how is the node supervised?      | ``liveness``                                           |
 | how are PDOs configured?         | ``pdo_configuration``, ``pdo_comm_subindices``, ``select_pdo``, ``sent_on_write`` |
@@ -86,6 +87,9 @@ class DriveFamily:
     # differ from csp / csp / csv / cst
     default_modes: ClassVar[Mapping[str, str]] = {}
     boot_detection: ClassVar[BootDetection] = BootDetection.BOOTUP_FRAME
+    # the node knows NMT reset communication (0x82); False: a node's `reset_communication`
+    # defaults to false, and the master finds it by its boot-up announcement or an SDO probe
+    nmt_reset_communication: ClassVar[bool] = True
     has_heartbeat: ClassVar[bool] = True  # False: the node must be guarded (config guard_time_ms)
     uses_axis_scaling: ClassVar[bool] = True  # False: the driver scales from the axis' `drive` settings
     # the position loop of axes that give no `position_loop` (e.g. a velocity-only drive line)
@@ -128,6 +132,13 @@ class DriveFamily:
     # -- boot --------------------------------------------------------------------------------
     def is_bootup_emcy(self, data: bytes) -> bool:
         """With ``BootDetection.EMCY``: this EMCY payload is the node's boot-up announcement."""
+        return False
+
+    def bootup_emcy_is_ambiguous(self, data: bytes) -> bool:
+        """With ``BootDetection.EMCY``: this boot-up payload can also be an ordinary EMCY (e.g.
+        eight zero bytes, which also read as "no error"). From a node the master has running,
+        such a frame counts as a reboot only once the node's next reported NMT state (guarding
+        reply or heartbeat) is not operational."""
         return False
 
     def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:

@@ -90,6 +90,9 @@ class NodeRuntime:
         self.nmt_state = NmtState.UNKNOWN
         self.last_heartbeat: float | None = None
         self.bootup_seen = threading.Event()
+        # monotonic time of an ambiguous boot-up EMCY from a running node, until the node's
+        # next reported NMT state confirms (not operational) or dismisses it
+        self.bootup_suspected: float | None = None
         self._emcy: deque[EmcyEvent] = deque(maxlen=EMCY_HISTORY)
         self._on_emcy = on_emcy
         self._state_listeners: list[Callable[[], None]] = []
@@ -115,6 +118,7 @@ class NodeRuntime:
         if self.liveness is Liveness.HEARTBEAT:
             self.last_heartbeat = time.monotonic()
             self.nmt_state = NmtState.from_code(state)
+            self._confirm_bootup(state, self.last_heartbeat)
         elif state == 0:  # a boot-up frame of a guarded node: it starts in pre-operational
             self.nmt_state = NmtState.PRE_OPERATIONAL
         self._notify()
@@ -126,6 +130,7 @@ class NodeRuntime:
     def restart_guarding(self) -> None:
         """Before a (re)boot: stop polling; the next reply's toggle is expected 0."""
         self.guard_active = False
+        self.bootup_suspected = None
         if self.guard is not None:
             self.guard.reset()
 
@@ -133,12 +138,30 @@ class NodeRuntime:
         """The latest node guarding reply (supervisor thread)."""
         self.last_heartbeat = time.monotonic() - age
         self.nmt_state = NmtState.from_code(state)
+        if self._confirm_bootup(state, self.last_heartbeat):
+            self._notify()
+
+    def _confirm_bootup(self, state: int, at: float) -> bool:
+        """An NMT state the node reported at ``at`` settles a suspected boot-up: not operational
+        -> it rebooted (``bootup_seen``); True then."""
+        suspected = self.bootup_suspected
+        if suspected is None or at <= suspected:
+            return False
+        self.bootup_suspected = None
+        if NmtState.from_code(state) is NmtState.OPERATIONAL:
+            return False
+        self.bootup_seen.set()
+        return True
 
     def _on_emcy_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
         payload = bytes(data)
         if self.family.boot_detection is BootDetection.EMCY and self.family.is_bootup_emcy(payload):
-            self.bootup_seen.set()
-            self.nmt_state = NmtState.PRE_OPERATIONAL
+            if self.boot_state in (BootState.OPERATIONAL, BootState.LOST) and \
+                    self.family.bootup_emcy_is_ambiguous(payload):
+                self.bootup_suspected = time.monotonic()  # the next NMT state it reports tells
+            else:
+                self.bootup_seen.set()
+                self.nmt_state = NmtState.PRE_OPERATIONAL
         event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
         self._emcy.append(event)
         self._on_emcy(event)

@@ -8,6 +8,7 @@ The bridge reaches them only through CAN frames; tests may inspect their state.
 - :class:`SimAkd` -- a Kollmorgen AKD with PVT interpolation and the AKD's quirks (family ``akd``)
 - :class:`SimOpenDrive` -- an OPEN drive: CiA 301 only, logic functions, alarms, P/C parameters (family ``opendrive``)
 - :class:`SimS120` -- a SINAMICS S120 + CBC10: drive objects, p8630 window, SINAMICS EMCY (family ``sinamics_s120``)
+- :class:`SimServostar` -- a SERVOSTAR 400/600: boot EMCY, PDO library, mode 0xFA, no Fault state (family ``servostar``)
 - :func:`simulator_for` / :func:`register_simulator` -- family name -> simulator class
 - :mod:`drive_bridge.sim.testing` -- test-side master helpers (SimBench, FrameLog, SyncLoop)
 - ``python -m drive_bridge.sim.bench`` -- per-SYNC cost of one simulated drive
@@ -33,9 +34,10 @@ from drive_bridge.sim.opendrive import SimOpenDrive  # registers the 'opendrive'
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS
 from drive_bridge.sim.registry import register_simulator, simulated_families, simulator_for
 from drive_bridge.sim.s120 import SimS120  # registers the 'sinamics_s120' family's simulator
+from drive_bridge.sim.servostar import SimServostar  # registers the 'servostar' family's simulator
 from drive_bridge.sim.slave import SimulatedSlave
 
 __all__ = ['AXIS_OPTIONS', 'Axis402', 'SLAVE_OPTIONS', 'SimAkd', 'SimDrive402', 'SimOpenDrive', 'SimS120',
-           'SimulatedBus',
+           'SimServostar', 'SimulatedBus',
            'SimulatedSlave',
            'register_simulator', 'simulated_families', 'simulator_for']

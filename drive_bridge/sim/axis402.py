@@ -105,7 +105,9 @@ class Axis402:
     - :meth:`on_transition` -- after every device state transition;
     - :meth:`compute_statusword`, :meth:`param`, :meth:`reset`, :meth:`advance`;
 
-    and a drive acknowledges its faults by other means through :meth:`acknowledge_fault`.
+    and a drive acknowledges its faults by other means through :meth:`acknowledge_fault`; a
+    family whose error reactions are not the Fault state acts through :meth:`enter_state`,
+    :meth:`brake` and :meth:`release_brake`.
     """
 
     def __init__(self, drive: AxisDrive, slot: int, options: dict[str, Any]) -> None:
@@ -468,6 +470,30 @@ class Axis402:
 
     def on_transition(self, old: State, new: State) -> None:
         """Hook: the device state went from ``old`` to ``new`` (may be equal), reactions done."""
+
+    def enter_state(self, state: State) -> None:
+        """Go to ``state`` now, by the drive's own decision (e.g. an error reaction of a drive
+        without a Fault state), with the transition's usual effects."""
+        self._goto(state)
+
+    def brake(self, reason: str, deceleration: float, then: State | None = None) -> None:
+        """Start a stop ramp (``deceleration`` counts/s^2) from the present demand, named ``reason``:
+        the mode stops driving the demand; at standstill ``then`` is entered, or (None) the axis
+        stays stopped in its state until :meth:`release_brake` or a state change."""
+        self._begin_stop(_Stop(reason, deceleration, then))
+
+    def release_brake(self) -> None:
+        """End a stop ramp started by :meth:`brake`: in Operation Enabled the mode starts again
+        from the present demand."""
+        if self._stop is not None:
+            self._stop = None
+            if self.state is State.OPERATION_ENABLED:
+                self._enter_mode()
+
+    @property
+    def braking(self) -> str | None:
+        """The reason of the running (or finished, still holding) stop ramp, None without one."""
+        return None if self._stop is None else self._stop.reason
 
     # ---- faults -------------------------------------------------------------------------
     def fault(self, code: int, manufacturer: bytes = b'', persistent: bool = False, emit: bool = True) -> None:

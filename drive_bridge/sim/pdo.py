@@ -19,6 +19,9 @@ Abort codes for parameter writes (CiA 301 §7.5.2.35-38 leave some choices open)
   RTR-only transmission type (241..253), inhibit time or SYNC start value changed
   while valid, SYNC start value > 240: 0x06090030.
 
+Mapping entries of 24 bits (INTEGER24 / UNSIGNED24, e.g. the SERVOSTAR's 0x2070:01/02) are
+packed as three little-endian bytes.
+
 Behaviour choices: an RPDO of type 0..240 is applied at the next SYNC whatever n
 (the last one received wins); all RPDOs latched for a SYNC are stored before any
 reacts. An RPDO shorter than its mapping is dropped with EMCY 0x8210 (once until a
@@ -66,6 +69,19 @@ _FORMATS: dict[int | None, str] = {  # ODVariable.data_type may be None
     dt.REAL32: 'f', dt.REAL64: 'd',
 }
 _DUMMY_INDICES = range(0x0001, 0x0008)  # data type "dummy" entries
+# 24-bit types (packed as 3 bytes) -> signed
+_TRIPLETS: dict[int | None, bool] = {dt.INTEGER24: True, dt.UNSIGNED24: False}
+
+
+def _pack24(get: Callable[[], Any]) -> Callable[[], bytes]:
+    """A getter of a 24-bit object as its 3 little-endian bytes (out-of-range values wrap)."""
+    def packed() -> bytes:
+        return (int(get()) & 0xFFFFFF).to_bytes(3, 'little')
+    return packed
+
+
+def _unpack24(signed: bool) -> Callable[[bytes], int]:
+    return lambda raw: int.from_bytes(raw, 'little', signed=signed)
 
 
 def restricted_can_id(can_id: int) -> bool:
@@ -96,6 +112,7 @@ class Pdo:
         self.keys: tuple[int, ...] = ()
         self.struct = struct.Struct('<')
         self.getters: tuple[Callable[[], Any], ...] = ()
+        self.unpackers: tuple[Callable[[bytes], int] | None, ...] | None = None  # 24-bit fields only
         # runtime
         self.latched: bytes | None = None
         self.sync_count = 0
@@ -233,6 +250,11 @@ class PdoEngine:
         against changes (CiA 301: while the PDO is valid, ``cob`` its 0x14xx/0x18xx:1)."""
         return not cob & COB_INVALID
 
+    def check_entry(self, pdo: Pdo, entry: int) -> ODVariable:
+        """The mapped variable of mapping ``entry`` for ``pdo``, or the CiA 301 abort (for device
+        models with their own mapping write rules)."""
+        return self._check_entry(pdo, entry)
+
     def _check_entry(self, pdo: Pdo, entry: int) -> ODVariable:
         index, sub, bits = entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
         if index in _DUMMY_INDICES:
@@ -241,7 +263,8 @@ class PdoEngine:
         if var is None:
             raise _abort(ABORT_NOT_IN_OD)
         usable = var.readable if pdo.transmit else var.writable
-        if not var.pdo_mappable or not usable or var.data_type not in _FORMATS:
+        if not var.pdo_mappable or not usable or (var.data_type not in _FORMATS
+                                                  and var.data_type not in _TRIPLETS):
             raise _abort(ABORT_NOT_MAPPABLE)
         if bits != len(var):
             raise _abort(ABORT_INCOMPATIBLE)
@@ -264,6 +287,7 @@ class PdoEngine:
         pdo.event_timer = values.get(key(pdo.comm, 5), 0) / 1000.0 if pdo.transmit else 0.0
         pdo.sync_start = values.get(key(pdo.comm, 6), 0) if pdo.transmit else 0
         fmt, keys, getters = '<', [], []
+        unpackers: list[Callable[[bytes], int] | None] = []
         try:
             for sub in range(1, values[key(pdo.mapping, 0)] + 1):
                 entry = values[key(pdo.mapping, sub)]
@@ -275,14 +299,23 @@ class PdoEngine:
                 var = self._store.variables[k]
                 if bits != len(var):
                     raise KeyError(k)
-                fmt += _FORMATS[var.data_type]
                 keys.append(k)
-                getters.append(self.value_getter(k, var))
+                getter = self.value_getter(k, var)
+                signed = _TRIPLETS.get(var.data_type)
+                if signed is None:
+                    fmt += _FORMATS[var.data_type]
+                    unpackers.append(None)
+                else:  # 24 bits: 3 raw bytes, converted on the way in and out
+                    fmt += '3s'
+                    getter = _pack24(getter)
+                    unpackers.append(_unpack24(signed))
+                getters.append(getter)
         except KeyError:  # a mapping the EDS itself got wrong: the PDO cannot exist
-            fmt, keys, getters = '<', [], []
+            fmt, keys, getters, unpackers = '<', [], [], []
             cob |= COB_INVALID
         pdo.struct = struct.Struct(fmt)
         pdo.keys, pdo.getters = tuple(keys), tuple(getters)
+        pdo.unpackers = tuple(unpackers) if any(u is not None for u in unpackers) else None
         pdo.valid = not cob & COB_INVALID and pdo.struct.size > 0
         pdo.latched = None
         pdo.sync_count = 0
@@ -360,7 +393,10 @@ class PdoEngine:
 
     @staticmethod
     def _decode(pdo: Pdo, data: bytes | bytearray) -> list[tuple[int, Any]]:
-        return list(zip(pdo.keys, pdo.struct.unpack_from(data)))
+        values = pdo.struct.unpack_from(data)
+        if pdo.unpackers is not None:
+            values = tuple(v if u is None else u(v) for v, u in zip(values, pdo.unpackers))
+        return list(zip(pdo.keys, values))
 
     # ---- TPDO ------------------------------------------------------------------------
     def _pack(self, pdo: Pdo) -> bytes:
@@ -371,6 +407,9 @@ class PdoEngine:
             for get, k in zip(pdo.getters, pdo.keys):
                 var = self._store.variables[k]
                 value = get()
+                if isinstance(value, bytes):  # a 24-bit field, already packed
+                    out.append(value)
+                    continue
                 if var.data_type in dt.INTEGER_TYPES:
                     bits = len(var)
                     value = int(value) & ((1 << bits) - 1)

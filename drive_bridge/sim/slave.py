@@ -79,7 +79,9 @@ class SimulatedSlave(CommFaultInjection):
     - :meth:`on_life_guarding_lost` / :meth:`on_life_guarding_recovered` -- life guarding events;
     - :meth:`answers_guarding` -- whether guarding RTRs are answered now;
     - :meth:`life_time_limit` -- the device's ceiling of the node life time;
-    - :meth:`expedited_download` -- the data an expedited SDO download carries.
+    - :meth:`expedited_download` -- the data an expedited SDO download carries;
+    - :meth:`refuse_sdo_request` -- SDO requests the device answers with an abort unserved
+      (e.g. segmented or block transfers of a device with expedited transfer only).
 
     and acts by itself through :meth:`set_nmt_state`, :meth:`restart` and
     :meth:`reload_communication_objects`.
@@ -589,6 +591,12 @@ class SimulatedSlave(CommFaultInjection):
         CiA 301 checks. A device that accepts other sizes than the object's fits them here."""
         return data
 
+    def refuse_sdo_request(self, request: bytes) -> int | None:
+        """Hook: the abort code with which the device answers the SDO request frame ``request``
+        instead of serving it (the abort frame repeats the request's bytes 1..3). Default: None,
+        every request is served (canopen's server: expedited, segmented, block)."""
+        return None
+
     # ---- object access ---------------------------------------------------------------
     def register_object(self, index: int, subindex: int = 0, *, reader: Callable[[], Any] | None = None,
                         validator: Callable[[Any], None] | None = None,
@@ -669,6 +677,10 @@ class SimulatedSlave(CommFaultInjection):
     def _on_sdo_request(self, can_id: int, data: bytearray, timestamp: float) -> None:
         with self._lock:
             if self.faults.muted or self._nmt not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
+                return
+            refused = self.refuse_sdo_request(bytes(data))
+            if refused is not None:
+                self._sdo_respond(bytes([0x80]) + bytes(data[1:4]) + refused.to_bytes(4, 'little'))
                 return
             self._sdo_request = bytes(data)
             try:

@@ -1,0 +1,184 @@
+"""The ``servostar`` family: Kollmorgen SERVOSTAR 400/600 servo amplifiers with their built-in
+CANopen interface (shared/drives/servostar-400-600.md, from the manual "CANopen SERVOSTAR
+400/600", edition 12/2009, firmware >= 6.57).
+
+What the bridge knows beyond the EDS (drive_bridge/families/data/servostar.eds):
+
+- boot-up: an EMCY on 0x80 + id with 0 bytes or 8 zero bytes (DRVCNFG), no 0x700 frame, no NMT
+  reset communication (a node's ``reset_communication`` defaults to false): the master waits for
+  that EMCY or, for a drive that is already running, finds it by an SDO probe. The 8-byte form
+  reads like an "error free" EMCY, so from a running drive it counts as a reboot only once the
+  next guarding reply shows it left OPERATIONAL; the 0-byte form is taken at once;
+- supervision: node guarding only (no heartbeat: the config must give ``guard_time_ms``); the
+  drive's life guarding runs only while its output stage is enabled, its timeout is warning n04
+  with a quick stop and EMCY 0x8181 (category 2), acknowledged by controlword bit 11
+  (``~/fault_reset``);
+- PDOs: chosen by library number (0x2600-0x2603, 0x2A00-0x2A03) or free PDOs 37-40; the
+  communication records have sub-indices 1-3 only (no event timer) (:mod:`~.pdos`);
+- boot steps: free PDO selection, units and limits (PRBASE, VLIM, PEMAX, DEC), PTBASE against
+  the SYNC period (:mod:`~.boot`);
+- modes: pp, pv, hm and the manufacturer modes -1 (0xFF), -2 (0xFE), -3 (0xFD), -6 (0xFA,
+  trajectory: the default, streamed one setpoint per SYNC); no vl, tq, ip (refused before
+  anything is sent);
+- faults: no Fault state, 0x1002 bit 31 and the EMCY category; bit 7 (restart) or bit 11
+  (:mod:`~.driver`); EMCY texts with fault number and category (:mod:`~.emcy`);
+- parameters: the ASCII parameters of the object channel 0x3500+ by name (:mod:`~.parameters`).
+
+Known gaps: RPDO 33 (two drives' setpoints in one frame, 0x2721 picking the half) is refused by
+the loader: the bridge sends one frame per node; effort commands are not offered (0xFD takes a
+current in 1640 = rated units, no CiA 402 torque mode); ``~/home`` uses the CiA 402 homing objects
+with the axis' velocity scaling, which is the 0x2070:02 unit, not 0x6099's; 0x60FF in pv is sent
+in increments per 250 us (0x6094 = 0/0) without a check against a real drive.
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia402.modes import Mode
+from drive_bridge.cia402.profile import AxisObjects, FaultModel, standard_strategy
+from drive_bridge.families.interface import DATA_DIR, BootDetection, DriveFamily, Liveness, PdoConfiguration
+from drive_bridge.families.parameters import ParameterPort
+from drive_bridge.families.ports import BootStep, NodePort
+from drive_bridge.families.registry import register_family
+from drive_bridge.families.servostar import boot, emcy, objects as o, pdos
+from drive_bridge.families.servostar.driver import ServostarAxis, mode_label
+from drive_bridge.families.servostar.options import parse_options
+from drive_bridge.families.servostar.parameters import ServostarParameters
+from drive_bridge.families.servostar.units import DriveUnits
+from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
+
+log = logging.getLogger('drive_bridge.families.servostar')
+
+
+@register_family
+class Servostar(DriveFamily):
+    """Kollmorgen SERVOSTAR 400/600, one axis per node."""
+
+    name = 'servostar'
+    description = 'Kollmorgen SERVOSTAR 400/600 (CANopen; trajectory mode 0xFA, node guarding)'
+    default_eds = DATA_DIR / 'servostar.eds'
+    has_cia402 = True
+    max_axes = 1
+    emcy_texts = emcy.EMCY_TEXTS
+    accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.HOMING, o.MODE_POSITION,
+                                o.MODE_SPEED_DIGITAL, o.MODE_CURRENT_DIGITAL, o.MODE_TRAJECTORY})
+    default_modes = {'mode': str(o.MODE_TRAJECTORY), 'position_mode': str(o.MODE_TRAJECTORY),
+                     'velocity_mode': 'pv', 'effort_mode': str(o.MODE_CURRENT_DIGITAL)}
+    boot_detection = BootDetection.EMCY
+    nmt_reset_communication = False
+    has_heartbeat = False
+    uses_axis_scaling = False  # PRBASE etc. are read at boot; the axis' `drive` settings give the mechanics
+    pdo_configuration = PdoConfiguration.SELECT_BY_NUMBER
+    pdo_comm_subindices = o.COMM_SUBINDICES
+    fault_model = FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT)
+
+    def __init__(self) -> None:
+        self._drivers: dict[int, ServostarAxis] = {}  # by slot (one family instance per node)
+        self._cycle_period: float | None = None
+        self._units: DriveUnits | None = None  # as the last boot read them
+
+    # -- configuration ------------------------------------------------------------------------------
+    def eds_for(self, axis_count: int) -> Path | None:
+        return self.default_eds
+
+    def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
+                     synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        return pdos.default_pdos(node_id, axes, synchronous)
+
+    def check_pdos(self, rpdos: Sequence[PdoConfig], tpdos: Sequence[PdoConfig], slots: Sequence[int]) -> list[str]:
+        return pdos.check_pdos(rpdos, tpdos)
+
+    def parse_axis_options(self, options: Mapping[str, Any]) -> tuple[Mapping[str, Any], Sequence[tuple[str, str]]]:
+        return parse_options(options)
+
+    def liveness(self, config: NodeConfig) -> Liveness:
+        """Node guarding: the config requires guard_time_ms (``has_heartbeat = False``)."""
+        return Liveness.GUARDING if config.guarding else Liveness.NONE
+
+    # -- boot-up ------------------------------------------------------------------------------------
+    def is_bootup_emcy(self, data: bytes) -> bool:
+        return emcy.is_bootup(data)
+
+    def bootup_emcy_is_ambiguous(self, data: bytes) -> bool:
+        """8 zero bytes are also the "error free" EMCY; 0 bytes are only ever the boot-up."""
+        return len(data) != 0
+
+    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
+        return (('free PDOs 37-40 (0x2600 / 0x2A00)', boot.select_free_pdos),
+                ('units and limits PRBASE / VLIM / PEMAX', self._read_units),
+                ('trajectory period PTBASE', self._check_ptbase))
+
+    def _read_units(self, node: NodePort) -> None:
+        units = boot.read_units(node)
+        for axis in node.config.axes:
+            driver = self._drivers.get(axis.slot)
+            vlim = units.joint_speed_limit(driver.options, axis.joint_type) if driver is not None else None
+            limit = axis.limits.max_velocity
+            if vlim is not None and limit is not None and limit > vlim * (1 + 1e-9):
+                raise boot.ServostarBootError(
+                    f"joint {axis.joint!r}: max_velocity {limit:g} exceeds the drive's speed limit VLIM (0x3622) = "
+                    f'{units.vlim_rpm:g} rpm ({vlim:.6g} at the joint): the drive faults on steps beyond '
+                    'VLIM x period; lower max_velocity or raise VLIM')
+        log.info('node %d (%s): %s', node.node_id, node.name, units.describe())
+        self._units = units
+
+    def _check_ptbase(self, node: NodePort) -> None:
+        period = boot.read_ptbase(node)
+        units = self._units
+        sync = self._cycle_period
+        for axis in node.config.axes:
+            driver = self._drivers.get(axis.slot)
+            if driver is None:
+                continue
+            if units is not None:
+                driver.apply_units(units, period)
+            if sync is None:
+                continue
+            streams = o.MODE_TRAJECTORY in (axis.mode, axis.position_mode)
+            problem = boot.check_ptbase(period, sync, streams)
+            if problem:
+                raise boot.ServostarBootError(f'joint {axis.joint!r} streams in mode {mode_label(o.MODE_TRAJECTORY)}: '
+                                              f'{problem}')
+            if abs(period - sync) > 1e-6:
+                log.warning('node %d (%s): PTBASE is %g ms, the SYNC period %g ms: mode 0xFA will be refused',
+                            node.node_id, node.name, period * 1000, sync * 1000)
+
+    # -- PDOs ---------------------------------------------------------------------------------------
+    def select_pdo(self, kind: str, config: PdoConfig) -> Sequence[tuple[int, int, int]] | None:
+        """A library PDO by its number; None for a free PDO (selected by a boot step, mapped by the master)."""
+        return pdos.select_writes(kind, config)
+
+    # -- axes ---------------------------------------------------------------------------------------
+    def axis_objects(self, slot: int) -> AxisObjects:
+        """Actual position 0x2070:03 and speed 0x2070:02, torque 0x6077; targets: the trajectory
+        setpoint 0x2022:04 (0x607A in pp, by the driver), 0x60FF; no torque target."""
+        return AxisObjects(position_actual=o.ACTUAL_POSITION, velocity_actual=o.ACTUAL_SPEED,
+                           effort_actual=o.TORQUE_ACTUAL, target_position=o.TRAJECTORY_SETPOINT,
+                           target_velocity=o.TARGET_VELOCITY, target_effort=(0x2060, 0))
+
+    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None:
+        """Mode 0xFA: one absolute position setpoint per SYNC ('cyclic')."""
+        if mode == o.MODE_TRAJECTORY:
+            return 'cyclic'
+        return standard_strategy(mode, ip_submode, None)
+
+    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
+                            cycle_period: float) -> JointDriver:
+        driver = ServostarAxis(node, axis, timeouts, cycle_period, profile=self)
+        self._drivers[axis.slot] = driver
+        self._cycle_period = cycle_period
+        return driver
+
+    # -- EMCY and parameters ------------------------------------------------------------------------
+    def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
+        return emcy.decode(node_id, node_name, data, timestamp)
+
+    def parameters(self, port: ParameterPort) -> ServostarParameters:
+        """ASCII parameters of the object channel 0x3500+ by name."""
+        config: NodeConfig | None = getattr(port, 'config', None)
+        return ServostarParameters(port, config.od if config is not None else None)
