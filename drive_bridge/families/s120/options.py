@@ -17,10 +17,11 @@ key                        default  meaning
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
+
+from drive_bridge.families.drive_settings import parse_drive_settings
 
 KEYS = ('gear_ratio', 'direction', 'offset', 'metres_per_revolution', 'encoder')
 
@@ -39,38 +40,6 @@ class AxisOptions:
         return cls(**{k: v for k, v in values.items() if k in KEYS})
 
 
-def _number(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return None
-    return float(value)
-
-
 def parse_options(options: Mapping[str, Any]) -> tuple[dict[str, Any], list[tuple[str, str]]]:
     """(values, [(key, problem)]) of an axis' ``drive`` mapping."""
-    values: dict[str, Any] = {}
-    problems: list[tuple[str, str]] = []
-    for key, raw in options.items():
-        if key not in KEYS:
-            problems.append((key, f"unknown key for family 'sinamics_s120'; allowed keys: {', '.join(KEYS)}"))
-            continue
-        number = _number(raw)
-        if key == 'encoder':
-            if not isinstance(raw, bool):
-                problems.append((key, f'expected true or false, got {raw!r}'))
-            else:
-                values[key] = raw
-        elif key == 'direction':
-            if number not in (1.0, -1.0):
-                problems.append((key, f'expected 1 or -1, got {raw!r}'))
-            else:
-                values[key] = int(number or 1)
-        elif key == 'offset':
-            if number is None:
-                problems.append((key, f'expected a number (rad or m), got {raw!r}'))
-            else:
-                values[key] = number
-        elif number is None or number <= 0:
-            problems.append((key, f'expected a number > 0, got {raw!r}'))
-        else:
-            values[key] = number
-    return values, problems
+    return parse_drive_settings(options, 'sinamics_s120', KEYS, booleans=('encoder',))
