@@ -24,6 +24,7 @@ setup(
     entry_points={
         'console_scripts': [
             f'bridge = {PACKAGE}.cli:bridge_main',
+            f'drive-bridge = {PACKAGE}.cli.main:console_main',
             f'bridge_managed = {PACKAGE}.cli:bridge_managed_main',
         ],
     },

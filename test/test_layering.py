@@ -152,7 +152,7 @@ def test_cycle_finder_finds_cycles() -> None:
 
 # --- no vendor knowledge in the generic layers ---------------------------------------------------
 
-GENERIC = ('master', 'cia402', 'streaming', 'ros')
+GENERIC = ('master', 'cia402', 'streaming', 'ros', 'bag')
 
 # Word match, case-insensitive; `_` and camelCase humps count as word boundaries (is_akd, SimAkd).
 VENDOR = re.compile(r'(?<![a-z0-9])(akd|kollmorgen|servostar|siemens|sinamics|s120|cbc10|open[\s_-]*drive'

@@ -1,0 +1,58 @@
+"""``drive-bridge``: the package's command-line tool, one subcommand per module.
+
+Each subcommand is a module of this package that follows :class:`Subcommand`; adding one is
+one line in ``COMMANDS``. Modules are imported when their verb runs, so ``--help`` and a
+fast verb do not pay for rclpy, rosbags or matplotlib.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import cast
+
+from drive_bridge.cli.command import Subcommand
+from drive_bridge.errors import DriveBridgeError
+
+# (verb, module under drive_bridge.cli, one-line help): the help is here so that listing the
+# verbs imports nothing.
+COMMANDS: tuple[tuple[str, str, str], ...] = (
+)
+
+PROG = 'drive-bridge'
+DESCRIPTION = ('CANopen drives in ROS 2: simulate a bus, record, import, replay and diagnose '
+               'bus traffic. The bus node itself runs as `bridge CONFIG` (or `bridge_managed`).')
+
+
+def build_parser(verb: str | None = None) -> tuple[argparse.ArgumentParser, dict[str, Subcommand]]:
+    """The tool's parser; only the module of ``verb`` (if given) is imported and configured."""
+    parser = argparse.ArgumentParser(prog=PROG, description=DESCRIPTION)
+    sub = parser.add_subparsers(dest='verb', metavar='COMMAND', required=True)
+    loaded: dict[str, Subcommand] = {}
+    for name, module_name, help_text in COMMANDS:
+        command_parser = sub.add_parser(name, help=help_text, description=help_text)
+        if name == verb:
+            module = cast(Subcommand, importlib.import_module(f'drive_bridge.cli.{module_name}'))
+            module.configure(command_parser)
+            loaded[name] = module
+    return parser, loaded
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse, run the verb, and turn a :class:`DriveBridgeError` into one line on stderr."""
+    args_list = sys.argv[1:] if argv is None else argv
+    verb = next((a for a in args_list if not a.startswith('-')), None)
+    parser, loaded = build_parser(verb)
+    args = parser.parse_args(args_list)
+    try:
+        return loaded[args.verb].run(args)
+    except DriveBridgeError as exc:
+        print(f'{PROG} {args.verb}: error: {exc}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+def console_main() -> None:
+    """The ``drive-bridge`` console entry point."""
+    raise SystemExit(main())
