@@ -464,10 +464,21 @@ class PdoEngine:
             return
         self._emit(pdo, data, now)
 
+    # A device whose event-driven TPDO1..4 are filtered by change masks (two 32-bit words per
+    # channel at this index + channel - 1, sub-indices 1 and 2: only masked bits count) sets it.
+    change_masks: int | None = None
+
     def has_changed(self, pdo: Pdo, data: bytes) -> bool:
-        """Hook: whether an event-driven TPDO's data changed enough to be sent (device models
-        may filter, e.g. by change masks)."""
-        return data != pdo.last_data
+        """Hook: whether an event-driven TPDO's data changed enough to be sent (by default any
+        change; with ``change_masks`` only a change in the masked bits or in the length)."""
+        last = pdo.last_data
+        if last is None or self.change_masks is None or not pdo.transmit or pdo.number > 4:
+            return data != last
+        values = self._store.values
+        index = self.change_masks + pdo.number - 1
+        mask = values.get(key(index, 1), 0xFFFFFFFF) | values.get(key(index, 2), 0xFFFFFFFF) << 32
+        changed = int.from_bytes(data, 'little') ^ int.from_bytes(last, 'little')
+        return bool(changed & mask) or len(data) != len(last)
 
     def _on_deferred(self, pdo: Pdo) -> None:
         with self._lock:

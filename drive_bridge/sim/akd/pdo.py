@@ -13,11 +13,12 @@ from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.sim.akd.objects import ABORT_INVALID_VALUE, ABORT_STATE, CHANGE_MASKS
 from drive_bridge.sim.pdo import COB_INVALID, Pdo, PdoEngine
-from drive_bridge.sim.store import key
 
 
 class AkdPdoEngine(PdoEngine):
     """The AKD's PDO rules (module docstring)."""
+
+    change_masks = CHANGE_MASKS
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -53,12 +54,3 @@ class AkdPdoEngine(PdoEngine):
             due.append(pdo)
         return due
 
-    def has_changed(self, pdo: Pdo, data: bytes) -> bool:
-        last = pdo.last_data
-        if last is None or not pdo.transmit or pdo.number > 4:
-            return data != last
-        values = self._store.values
-        index = CHANGE_MASKS + pdo.number - 1
-        mask = values.get(key(index, 1), 0xFFFFFFFF) | values.get(key(index, 2), 0xFFFFFFFF) << 32
-        changed = int.from_bytes(data, 'little') ^ int.from_bytes(last, 'little')
-        return bool(changed & mask) or len(data) != len(last)

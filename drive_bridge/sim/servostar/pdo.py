@@ -39,6 +39,8 @@ class ServostarPdoEngine(PdoEngine):
     """Library PDOs, free PDOs 37-40, per-PDO transmission types, change masks, RPDO 33 halves,
     the ASCII PDO 21 (package docstring)."""
 
+    change_masks = CHANGE_MASKS
+
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._selected: dict[tuple[bool, int], int] = {}
@@ -204,16 +206,6 @@ class ServostarPdoEngine(PdoEngine):
         super().apply_latched()
 
     # -- transmit -----------------------------------------------------------------------------------------
-    def has_changed(self, pdo: Pdo, data: bytes) -> bool:
-        last = pdo.last_data
-        if last is None or not pdo.transmit or pdo.number > 4:
-            return data != last
-        values = self._store.values
-        index = CHANGE_MASKS + pdo.number - 1
-        mask = values.get(key(index, 1), 0xFFFFFFFF) | values.get(key(index, 2), 0xFFFFFFFF) << 32
-        changed = int.from_bytes(data, 'little') ^ int.from_bytes(last, 'little')
-        return bool(changed & mask) or len(data) != len(last)
-
     def send_ascii(self, text: bytes) -> int:
         """The ASCII terminal's output on every valid TPDO channel carrying PDO 21, 8 characters a
         frame, the last one padded with NUL; the number of frames sent."""
