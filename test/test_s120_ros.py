@@ -17,22 +17,18 @@ from typing import Any
 
 import pytest
 import yaml
-from builtin_interfaces.msg import Duration
 from drive_bridge_interfaces.action import FollowJointTrajectory
-from drive_bridge_interfaces.msg import AxisState, AxisStates, Emcy, JointTolerance
-from drive_bridge_interfaces.srv import AxisCommand, ParamRead, SetMode
+from drive_bridge_interfaces.msg import AxisState, JointTolerance
+from drive_bridge_interfaces.srv import ParamRead, SetMode
+from nodebench import NS, NodeBench, point
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, String
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
 
-from akdtools import Sniffer
 from bustools import unique_channel
-from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
-NS = '/drive_bridge'
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLE = REPO / 'config' / 's120_example.yaml'
 MODULAR = REPO.parent / 'shared' / 'realdata' / 'eds' / 'SINAMICS_S120_V48__SINAMICS_S120.eds'
@@ -56,63 +52,13 @@ def config_text(channel: str, arm: dict[str, Any] | None = None, wrist: dict[str
     return yaml.safe_dump(data, sort_keys=False)
 
 
-def point(t: float, positions: list[float], velocities: list[float] | None = None,
-          accelerations: list[float] | None = None) -> JointTrajectoryPoint:
-    return JointTrajectoryPoint(positions=positions, velocities=velocities or [], accelerations=accelerations or [],
-                                time_from_start=Duration(sec=int(t), nanosec=round((t % 1) * 1e9)))
-
-
-class Bench:
-    """The bus node, a frame recorder and topic recorders."""
+class Bench(NodeBench):
+    """The S120 example's bus node (commands on ~/commands reach every joint in config order)."""
 
     def __init__(self, ros: RosHarness, interface: str = 'position', **config: Any) -> None:
         channel = unique_channel('s120ros')
-        self.ros = ros
-        self.sniffer = Sniffer(channel)
-        self.node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=config_text(channel, **config)),
-            Parameter('command_interface', value=interface)])  # ~/commands: every joint in config order
-        ros.add(self.node)
-        self.states: list[JointState] = []
-        self.axis_states: list[AxisStates] = []
-        self.emcys: list[Emcy] = []
-        self.errors: list[String] = []
-        watcher = ros.node(f's120_watch_{time.monotonic_ns() % 1000000}')
-        watcher.create_subscription(JointState, '/joint_states', self.states.append, 100)
-        watcher.create_subscription(AxisStates, f'{NS}/axis_states', self.axis_states.append, 100)
-        watcher.create_subscription(Emcy, f'{NS}/emcy', self.emcys.append, 100)
-        watcher.create_subscription(String, f'{NS}/command_errors', self.errors.append, 100)
-        self.commands = watcher.create_publisher(Float64MultiArray, f'{NS}/commands', 10)
-        self.trajectories = watcher.create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
-        self.watcher = watcher
-        self.node.master.wait_until_operational(15.0)
-        wait_for(lambda: any(set(JOINTS) <= set(m.name) for m in self.states), 10, 'every joint in /joint_states')
-
-    def drive(self, node: int) -> Any:
-        return self.node.simulation.drive(node)
-
-    def call(self, srv_type: Any, name: str, **fields: Any) -> Any:
-        client = self.watcher.create_client(srv_type, f'{NS}/{name}')
-        return self.ros.call(client, srv_type.Request(**fields), timeout=15.0)
-
-    def axis(self, name: str, *joints: str, **fields: Any) -> Any:
-        return self.call(AxisCommand, name, joints=list(joints), **fields)
-
-    def axis_state(self, joint: str) -> AxisState | None:
-        for msg in reversed(self.axis_states):
-            for state in msg.axes:
-                if state.joint_name == joint:
-                    return state
-        return None
-
-    def position(self, joint: str) -> float:
-        msg = next(m for m in reversed(self.states) if joint in m.name)
-        return float(dict(zip(msg.name, msg.position))[joint])
-
-    def close(self) -> None:
-        self.node.close()
-        self.sniffer.close()
-
+        super().__init__(ros, channel, config_text(channel, **config), JOINTS,
+                         [Parameter('command_interface', value=interface)])
 
 @pytest.fixture
 def bench(ros: RosHarness) -> Iterator[Bench]:

@@ -10,26 +10,20 @@ import math
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 import yaml
-from builtin_interfaces.msg import Duration
 from drive_bridge_interfaces.action import FollowJointTrajectory
-from drive_bridge_interfaces.msg import AxisState, AxisStates, Emcy, JointTolerance
-from drive_bridge_interfaces.srv import AxisCommand, ParamRead, ParamWrite, SetMode
+from drive_bridge_interfaces.msg import AxisState, JointTolerance
+from drive_bridge_interfaces.srv import ParamRead, ParamWrite, SetMode
+from nodebench import NS, NodeBench, point
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import JointState
-from std_msgs.msg import String
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory
 
-from akdtools import Sniffer
 from bustools import unique_channel
-from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
-NS = '/drive_bridge'
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLE = REPO / 'config' / 'servostar_example.yaml'
 X, Y = 1, 2
@@ -45,66 +39,18 @@ def config_text(channel: str) -> str:
     return yaml.safe_dump(data, sort_keys=False)
 
 
-def point(t: float, positions: list[float], velocities: list[float] | None = None,
-          accelerations: list[float] | None = None) -> JointTrajectoryPoint:
-    return JointTrajectoryPoint(positions=positions, velocities=velocities or [], accelerations=accelerations or [],
-                                time_from_start=Duration(sec=int(t), nanosec=round((t % 1) * 1e9)))
-
-
-class Bench:
-    """The bus node, a frame recorder and topic recorders."""
+class Bench(NodeBench):
+    """The SERVOSTAR example's bus node, joint states at 100 Hz."""
 
     def __init__(self, ros: RosHarness) -> None:
         channel = unique_channel('servostarros')
-        self.ros = ros
-        self.sniffer = Sniffer(channel)
-        self.node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=config_text(channel)), Parameter('publish_rate', value=100.0)])
-        ros.add(self.node)
-        self.states: list[JointState] = []
-        self.axis_states: list[AxisStates] = []
-        self.emcys: list[Emcy] = []
-        self.errors: list[String] = []
-        watcher = ros.node(f'servostar_watch_{time.monotonic_ns() % 1000000}')
-        watcher.create_subscription(JointState, '/joint_states', self.states.append, 100)
-        watcher.create_subscription(AxisStates, f'{NS}/axis_states', self.axis_states.append, 100)
-        watcher.create_subscription(Emcy, f'{NS}/emcy', self.emcys.append, 100)
-        watcher.create_subscription(String, f'{NS}/command_errors', self.errors.append, 100)
-        self.trajectories = watcher.create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
-        self.watcher = watcher
-        self.node.master.wait_until_operational(15.0)
-        wait_for(lambda: any(set(JOINTS) <= set(m.name) for m in self.states), 10, 'every joint in /joint_states')
-
-    def drive(self, node: int) -> Any:
-        return self.node.simulation.drive(node)
-
-    def call(self, srv_type: Any, name: str, **fields: Any) -> Any:
-        client = self.watcher.create_client(srv_type, f'{NS}/{name}')
-        return self.ros.call(client, srv_type.Request(**fields), timeout=20.0)
-
-    def axis(self, name: str, *joints: str, **fields: Any) -> Any:
-        return self.call(AxisCommand, name, joints=list(joints), **fields)
-
-    def axis_state(self, joint: str) -> AxisState | None:
-        for msg in reversed(self.axis_states):
-            for state in msg.axes:
-                if state.joint_name == joint:
-                    return state
-        return None
-
-    def position(self, joint: str) -> float:
-        msg = next(m for m in reversed(self.states) if joint in m.name)
-        return float(dict(zip(msg.name, msg.position))[joint])
+        super().__init__(ros, channel, config_text(channel), JOINTS,
+                         [Parameter('publish_rate', value=100.0)], call_timeout=20.0)
 
     def setpoints_per_sync(self, mark: int, node: int = X) -> list[int]:
         frames = self.sniffer.frames(after=mark)
         syncs = [k for k, f in enumerate(frames) if f.cob_id == SYNC]
         return [sum(1 for f in frames[a + 1:b] if f.cob_id == 0x300 + node) for a, b in zip(syncs, syncs[1:])]
-
-    def close(self) -> None:
-        self.node.close()
-        self.sniffer.close()
-
 
 @pytest.fixture
 def bench(ros: RosHarness) -> Iterator[Bench]:
