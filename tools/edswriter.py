@@ -12,6 +12,21 @@ from canopen.objectdictionary import ODArray, ODRecord, ODVariable, datatypes as
 VOLATILE_KEYS = ('CreationDate', 'CreationTime', 'ModificationDate', 'ModificationTime')
 
 
+def new_od(vendor_name: str, vendor_number: int, product_name: str, product_number: int, revision: int,
+           baud_kbit: tuple[int, ...], simple_boot_up_slave: bool = True) -> canopen.ObjectDictionary:
+    """An empty dictionary with its [DeviceInfo]: 4 RPDOs and 4 TPDOs, byte granularity."""
+    od = canopen.ObjectDictionary()
+    info = od.device_information
+    info.vendor_name, info.vendor_number = vendor_name, vendor_number
+    info.product_name, info.product_number, info.revision_number = product_name, product_number, revision
+    info.nr_of_RXPDO = info.nr_of_TXPDO = 4
+    info.simple_boot_up_slave = simple_boot_up_slave
+    info.granularity = 8  # mappings in whole bytes
+    for rate in baud_kbit:
+        info.allowed_baudrates.add(rate * 1000)
+    return od
+
+
 def var(name: str, index: int, sub: int, data_type: int, access: str = 'rw', default=0,
         mappable: bool = False, relative: bool = False, low: int | None = None,
         high: int | None = None) -> ODVariable:

@@ -71,7 +71,7 @@ import canopen
 from canopen.objectdictionary import ODRecord, datatypes as dt
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from edswriter import container, var, write_eds  # noqa: E402
+from edswriter import container, new_od, var, write_eds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'akd.eds'
 
@@ -253,19 +253,9 @@ def profile(od: canopen.ObjectDictionary) -> None:
 
 
 def build() -> canopen.ObjectDictionary:
-    od = canopen.ObjectDictionary()
-    info = od.device_information
-    info.vendor_name = 'Kollmorgen (Danaher Motion)'
-    info.vendor_number = VENDOR_ID
-    info.product_name = 'AKD servo drive (CANopen), drive_bridge model of manual rev. F'
-    info.product_number = PRODUCT_CODE
-    info.revision_number = REVISION
-    info.nr_of_RXPDO = 4
-    info.nr_of_TXPDO = 4
-    info.simple_boot_up_slave = True
-    info.granularity = 8  # "mappings are considered only in bytes"
-    for rate in (125, 250, 500, 1000):
-        info.allowed_baudrates.add(rate * 1000)
+    od = new_od('Kollmorgen (Danaher Motion)', VENDOR_ID,
+                'AKD servo drive (CANopen), drive_bridge model of manual rev. F', PRODUCT_CODE, REVISION,
+                (125, 250, 500, 1000))
     communication(od)
     pdos(od)
     manufacturer(od)

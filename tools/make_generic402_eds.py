@@ -19,7 +19,7 @@ from drive_bridge.families import get_family
 from drive_bridge.model import AxisConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from edswriter import container, var, write_eds  # noqa: E402
+from edswriter import container, new_od, var, write_eds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data'
 
@@ -167,18 +167,8 @@ def axis_objects(od: canopen.ObjectDictionary, slot: int) -> None:
 
 
 def build(axes: int) -> canopen.ObjectDictionary:
-    od = canopen.ObjectDictionary()
-    od.device_information.vendor_name = 'drive_bridge'
-    od.device_information.vendor_number = VENDOR_ID
-    od.device_information.product_name = f'Simulated CiA 402 drive, {axes} axis'
-    od.device_information.product_number = PRODUCT_CODE
-    od.device_information.revision_number = REVISION
-    od.device_information.nr_of_RXPDO = 4
-    od.device_information.nr_of_TXPDO = 4
-    od.device_information.simple_boot_up_slave = True
-    od.device_information.granularity = 8
-    for rate in (10, 20, 50, 125, 250, 500, 800, 1000):
-        od.device_information.allowed_baudrates.add(rate * 1000)
+    od = new_od('drive_bridge', VENDOR_ID, f'Simulated CiA 402 drive, {axes} axis', PRODUCT_CODE, REVISION,
+                (10, 20, 50, 125, 250, 500, 800, 1000))
     communication_objects(od, axes)
     pdo_objects(od, axes)
     for slot in range(axes):

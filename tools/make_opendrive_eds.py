@@ -83,7 +83,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(ROOT))
 from drive_bridge.sim.opendrive.parameters import CONNECTIONS, PARAMETERS  # noqa: E402
-from edswriter import container, var, write_eds  # noqa: E402
+from edswriter import container, new_od, var, write_eds  # noqa: E402
 
 OUT = ROOT / 'drive_bridge' / 'families' / 'data' / 'opendrive.eds'
 
@@ -214,19 +214,8 @@ def manufacturer(od: canopen.ObjectDictionary) -> None:
 
 
 def build() -> canopen.ObjectDictionary:
-    od = canopen.ObjectDictionary()
-    info = od.device_information
-    info.vendor_name = 'unknown (probably TDE MACNO)'
-    info.vendor_number = 0
-    info.product_name = 'OPEN drive (CANopen DS301), drive_bridge model of the CAN bus appendix'
-    info.product_number = 0
-    info.revision_number = 0
-    info.nr_of_RXPDO = 4
-    info.nr_of_TXPDO = 4
-    info.simple_boot_up_slave = True
-    info.granularity = 8
-    for rate in BAUD_RATES_KBIT:
-        info.allowed_baudrates.add(rate * 1000)
+    od = new_od('unknown (probably TDE MACNO)', 0,
+                'OPEN drive (CANopen DS301), drive_bridge model of the CAN bus appendix', 0, 0, BAUD_RATES_KBIT)
     communication(od)
     pdos(od)
     manufacturer(od)

@@ -144,7 +144,7 @@ import canopen
 from canopen.objectdictionary import ODRecord, datatypes as dt
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from edswriter import container, var, write_eds  # noqa: E402
+from edswriter import container, new_od, var, write_eds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'servostar.eds'
 
@@ -414,19 +414,10 @@ def profile(od: canopen.ObjectDictionary) -> None:
 
 
 def build() -> canopen.ObjectDictionary:
-    od = canopen.ObjectDictionary()
-    info = od.device_information
-    info.vendor_name = 'Kollmorgen (Danaher Motion)'
-    info.vendor_number = VENDOR_ID
-    info.product_name = 'SERVOSTAR 400/600 (CANopen), drive_bridge model of the 12/2009 manual'
-    info.product_number = PRODUCT_CODE
-    info.revision_number = REVISION
-    info.nr_of_RXPDO = 4
-    info.nr_of_TXPDO = 4
-    info.simple_boot_up_slave = False  # boot-up is an EMCY, not the 0x700 frame
-    info.granularity = 8
-    for rate in (10, 20, 50, 125, 250, 500, 800, 1000):
-        info.allowed_baudrates.add(rate * 1000)
+    od = new_od('Kollmorgen (Danaher Motion)', VENDOR_ID,
+                'SERVOSTAR 400/600 (CANopen), drive_bridge model of the 12/2009 manual', PRODUCT_CODE, REVISION,
+                (10, 20, 50, 125, 250, 500, 800, 1000),
+                simple_boot_up_slave=False)  # boot-up is an EMCY, not the 0x700 frame
     communication(od)
     pdos(od)
     manufacturer(od)
