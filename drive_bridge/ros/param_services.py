@@ -25,8 +25,9 @@ from rclpy.node import Node
 from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
 from drive_bridge.master.master import Master
 from drive_bridge.ros.access import AccessGuard
-from drive_bridge.ros.errors import AccessRefused
-from drive_bridge.ros.pool import in_pool
+from drive_bridge.ros.errors import RequestRefused
+from drive_bridge.ros.pool import BoundedPool, in_pool
+from drive_bridge.ros.services import MAX_PENDING_REQUESTS
 
 T = TypeVar('T')
 
@@ -41,8 +42,7 @@ class ParameterServices:
         self.master = master
         self.guard = AccessGuard(master.config.access, master)
         self._own_pool = pool is None
-        self.pool = pool or concurrent.futures.ThreadPoolExecutor(max_workers=4,
-                                                                  thread_name_prefix='drive_bridge-param')
+        self.pool = pool or BoundedPool(4, MAX_PENDING_REQUESTS, 'drive_bridge-param')
         group = ReentrantCallbackGroup()
         self.services = [
             node.create_service(ParamRead, '~/param_read', self.param_read, callback_group=group),
@@ -90,7 +90,7 @@ class ParameterServices:
             return action(access)
         try:
             result = await self._in_pool(work)
-        except (ParameterError, AccessRefused) as exc:
+        except (ParameterError, RequestRefused) as exc:
             response.success, response.message = False, prefix + str(exc)
             return None
         except Exception as exc:  # a family's bug must still answer, and say what happened

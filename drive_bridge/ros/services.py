@@ -24,11 +24,14 @@ from drive_bridge.master.master import NMT_COMMANDS, Master
 from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
-from drive_bridge.ros.errors import AccessRefused
-from drive_bridge.ros.pool import in_pool
+from drive_bridge.ros.errors import RequestRefused
+from drive_bridge.ros.pool import BoundedPool, in_pool
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 T = TypeVar('T')
+SERVICE_WORKERS = 8
+# requests running or waiting at once (all services of the node); more are refused at once
+MAX_PENDING_REQUESTS = 32
 AxisAction = Callable[[JointDriver, float | None], str | None]
 
 
@@ -38,9 +41,10 @@ class BridgeServices:
         self.master = master
         self.executor = executor
         self.guard = AccessGuard(master.config.access, master)
-        self.pool = concurrent.futures.ThreadPoolExecutor(max_workers=8, thread_name_prefix='drive_bridge-srv')
+        self.pool = BoundedPool(SERVICE_WORKERS, MAX_PENDING_REQUESTS, 'drive_bridge-srv')
         # per-joint work of one request fans out here, never into self.pool (no nested waits)
-        self.joint_pool = concurrent.futures.ThreadPoolExecutor(max_workers=8, thread_name_prefix='drive_bridge-axis')
+        self.joint_pool = concurrent.futures.ThreadPoolExecutor(max_workers=SERVICE_WORKERS,
+                                                                thread_name_prefix='drive_bridge-axis')
         self.active = True
         group = ReentrantCallbackGroup()
         node.create_service(SdoRead, '~/sdo_read', self.sdo_read, callback_group=group)
@@ -97,7 +101,7 @@ class BridgeServices:
             response.success = True
         except SdoError as exc:
             response.success, response.abort_code, response.message = False, exc.abort_code, str(exc)
-        except (ValueError, AccessRefused) as exc:
+        except (ValueError, RequestRefused) as exc:
             response.success, response.message = False, str(exc)
         return response
 
@@ -107,7 +111,7 @@ class BridgeServices:
             self.master.nmt(request.command, request.node_id)
         try:  # in the pool: a command leaving OPERATIONAL first stops the node's axes (blocking)
             await self._in_pool(work)
-        except (ValueError, AccessRefused) as exc:
+        except (ValueError, RequestRefused) as exc:
             response.success, response.message = False, str(exc)
             return response
         target = 'all nodes' if request.node_id == 0 else f'node {request.node_id}'
@@ -176,7 +180,11 @@ class BridgeServices:
 
         def all_joints() -> dict[str, str | None]:
             return dict(zip(names, self.joint_pool.map(one, names))) if len(names) > 1 else {names[0]: one(names[0])}
-        outcome = await self._in_pool(all_joints)
+        try:
+            outcome = await self._in_pool(all_joints)
+        except RequestRefused as exc:
+            response.success, response.message, response.failed = False, str(exc), names
+            return response
         failed = [j for j, error in outcome.items() if error]
         response.success = not failed
         response.failed = failed
