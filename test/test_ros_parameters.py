@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
+from drive_bridge_interfaces.msg import AxisStates
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
@@ -102,6 +103,8 @@ def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness
     listener = ros.node('params_listener')
     states: list[JointState] = []
     diagnostics: list[DiagnosticArray] = []
+    axis_states: list[AxisStates] = []
+    listener.create_subscription(AxisStates, '/params_bridge/axis_states', axis_states.append, 100)
     listener.create_subscription(JointState, '/joint_states', states.append, 100)
     listener.create_subscription(DiagnosticArray, '/diagnostics', diagnostics.append, 100)
     wait_for(lambda: len(states) > 20, 10, 'joint states')
@@ -115,6 +118,12 @@ def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness
     assert client.set('diagnostics_period', 0.1).successful
     time.sleep(0.3)
     assert rate(diagnostics, 1.5) > 5  # was 1 Hz
+    assert client.set('state_rate', 0.0).successful  # on change only: the axes stand still
+    time.sleep(0.3)
+    assert rate(axis_states, 1.0) < 3
+    assert client.set('state_rate', 40.0).successful
+    time.sleep(0.2)
+    assert rate(axis_states, 1.0) > 20
 
     negative = client.set('publish_rate', -5.0)
     assert not negative.successful and negative.reason == 'parameter publish_rate must be >= 0, got -5.0'
@@ -128,6 +137,7 @@ def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness
     assert not mixed.successful and mixed.reason.startswith('sync_period: acts only at start')
     assert client.get('publish_rate') == 20.0  # nothing of a refused atomic set is applied
     assert client.set('publish_rate', 0.0).successful and client.set('diagnostics_period', 1.0).successful
+    assert client.set('state_rate', 10.0).successful
     assert rate(states, 1.0) > 100
 
 
