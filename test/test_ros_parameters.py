@@ -125,6 +125,9 @@ def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness
     time.sleep(0.2)
     assert rate(axis_states, 1.0) > 20
 
+    flood = client.set('diagnostics_period', 1e-6)
+    assert not flood.successful and flood.reason == 'parameter diagnostics_period must be >= 0.05 s, got 1e-06'
+    assert not client.set('state_rate', 5000.0).successful
     negative = client.set('publish_rate', -5.0)
     assert not negative.successful and negative.reason == 'parameter publish_rate must be >= 0, got -5.0'
     short = client.set('pvt_lookahead', 0.005)

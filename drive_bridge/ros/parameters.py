@@ -68,6 +68,9 @@ DESCRIPTIONS = {
 RUN_TIME = frozenset({'publish_rate', 'state_rate', 'diagnostics_period', 'pvt_segment', 'pvt_lookahead'})
 START_TIME = frozenset(f.name for f in fields(BridgeParameters)) - RUN_TIME
 _DEFAULTS = {f.name: f.default for f in fields(BridgeParameters)}
+# timers of the executor: faster ones would starve the services and subscriptions
+MAX_STATE_RATE = 100.0  # Hz
+MIN_DIAGNOSTICS_PERIOD = 0.05  # s
 
 
 class ParameterError(DriveBridgeError, ValueError):
@@ -157,8 +160,12 @@ def validate(params: BridgeParameters) -> list[str]:
     for name in ('sync_period', 'publish_rate', 'state_rate'):
         if getattr(params, name) < 0:
             problems.append(f'parameter {name} must be >= 0, got {getattr(params, name)}')
-    if params.diagnostics_period <= 0:
-        problems.append(f'parameter diagnostics_period must be > 0, got {params.diagnostics_period}')
+    if params.state_rate > MAX_STATE_RATE:
+        problems.append(f'parameter state_rate must be <= {MAX_STATE_RATE:g} Hz (0: on change only), '
+                        f'got {params.state_rate}')
+    if params.diagnostics_period < MIN_DIAGNOSTICS_PERIOD:
+        problems.append(f'parameter diagnostics_period must be >= {MIN_DIAGNOSTICS_PERIOD:g} s, '
+                        f'got {params.diagnostics_period}')
     if params.pvt_segment <= 0 or abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
         problems.append(f'parameter pvt_segment must be a positive whole number of ms, got {params.pvt_segment}')
     if params.pvt_lookahead < params.pvt_segment:
