@@ -6,7 +6,7 @@ so a config can be shared between threads without copying.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -235,6 +235,83 @@ class SimulationConfig:
 
 
 @dataclass(frozen=True)
+class ObjectRange:
+    """Object indices ``first``..``last`` (inclusive)."""
+
+    first: int
+    last: int
+
+    def __contains__(self, index: object) -> bool:
+        return isinstance(index, int) and self.first <= index <= self.last
+
+    def __str__(self) -> str:
+        return f'0x{self.first:04X}' if self.first == self.last else f'0x{self.first:04X}-0x{self.last:04X}'
+
+
+EVERY_OBJECT = (ObjectRange(0x0000, 0xFFFF),)
+# everything above the communication profile area (0x1000-0x1FFF, CiA 301)
+APPLICATION_OBJECTS = (ObjectRange(0x2000, 0xFFFF),)
+
+
+@dataclass(frozen=True)
+class ObjectRule:
+    """Which object indices ROS clients may reach through one service: per node id, else
+    ``default``. ``given``: set in the bus configuration (False: the bridge's default)."""
+
+    default: tuple[ObjectRange, ...]
+    nodes: Mapping[int, tuple[ObjectRange, ...]] = field(default_factory=dict)
+    given: bool = False
+
+    def ranges(self, node_id: int) -> tuple[ObjectRange, ...]:
+        return self.nodes.get(node_id, self.default)
+
+    def allows(self, node_id: int, index: int) -> bool:
+        return any(index in r for r in self.ranges(node_id))
+
+
+@dataclass(frozen=True)
+class NodeRule:
+    """Which nodes ROS clients may address through one service: any node id (NMT: also 0,
+    all nodes, and nodes outside the configuration), the configured nodes, those listed, or none."""
+
+    any_node: bool = False
+    configured: bool = False
+    node_ids: frozenset[int] = frozenset()
+    given: bool = False
+
+    def allows(self, node_id: int, configured_ids: Collection[int]) -> bool:
+        if self.any_node:
+            return True
+        return node_id != 0 and (node_id in self.node_ids or (self.configured and node_id in configured_ids))
+
+    def __str__(self) -> str:
+        if self.any_node:
+            return 'any node'
+        if self.configured:
+            return 'the configured nodes'
+        return ('nodes ' + ', '.join(str(n) for n in sorted(self.node_ids))) if self.node_ids else 'no node'
+
+
+@dataclass(frozen=True)
+class AccessConfig:
+    """What ROS clients may do through the services that write (the bus config's ``access``).
+
+    It governs client requests only: the bridge's own boot and configuration writes never pass
+    through it. Store/restore (0x1010/0x1011 and what the drive family names a save) is refused
+    unless ``store_restore`` allows the node, even where ``sdo_write``'s ranges include it.
+    """
+
+    read_only: bool = False
+    sdo_read: ObjectRule = ObjectRule(EVERY_OBJECT)
+    sdo_write: ObjectRule = ObjectRule(APPLICATION_OBJECTS)
+    store_restore: NodeRule = NodeRule()
+    nmt: NodeRule = NodeRule(configured=True)
+    param_read: NodeRule = NodeRule(configured=True)
+    param_write: NodeRule = NodeRule(configured=True)
+    param_save: NodeRule = NodeRule()
+
+
+@dataclass(frozen=True)
 class BusConfig:
     """One bus: interface, master, nodes and their axes."""
 
@@ -242,6 +319,7 @@ class BusConfig:
     master: MasterConfig = field(default_factory=MasterConfig)
     nodes: tuple[NodeConfig, ...] = ()
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
+    access: AccessConfig = field(default_factory=AccessConfig)
     path: Path | None = None
     warnings: tuple[str, ...] = ()  # accepted but ignored keys (e.g. ros2_canopen ones), each located
 

@@ -22,3 +22,7 @@ def test_documented_complete_example_loads(tmp_path: Path) -> None:
     assert [a.joint for _, a in config.axes] == ['shoulder_pan', 'shoulder_lift', 'slide']
     assert config.bus.interface == 'socketcan' and config.master.sync_period == 0.002
     assert config.warnings == ()
+    access = config.access
+    assert access.sdo_write.allows(9, 0x6200) and not access.sdo_write.allows(9, 0x6040)
+    assert access.sdo_write.allows(5, 0x6040) and not access.sdo_write.allows(5, 0x1017)
+    assert access.nmt.node_ids == {5, 6} and not access.nmt.allows(9, {5, 6, 9})

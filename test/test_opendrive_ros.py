@@ -46,6 +46,7 @@ def config_text(channel: str, simulation: dict[str, Any] | None = None, **node: 
     data['nodes']['opendrive'].update(node)
     if simulation:
         data['simulation'] = {'enabled': True, 'nodes': {'opendrive': simulation}}
+    data['access'] = {'param_save': 'configured'}  # ROS clients may not save by default
     return yaml.safe_dump(data, sort_keys=False)
 
 

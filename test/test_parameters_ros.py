@@ -28,6 +28,7 @@ def config_text() -> str:
     data = demo_data()
     data['nodes'] = {'base_drive': data['nodes']['base_drive'],
                      'akd': yaml.safe_load(AKD_EXAMPLE.read_text())['nodes']['akd']}
+    data['access'] = {'param_save': 'configured'}  # ROS clients may not save by default
     return yaml.safe_dump(data, sort_keys=False)
 
 

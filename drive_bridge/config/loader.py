@@ -10,6 +10,7 @@ from typing import Any
 import can
 
 from drive_bridge.config import keys
+from drive_bridge.config.access import parse_access
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
@@ -181,9 +182,10 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     # a node with a clashing id clashes in every predefined COB-ID too: reported once above
     check_cob_ids(issues, [pdo for draft in drafts if draft.name not in clashing for pdo in draft.pdos])
     simulation = _simulation(root.section('simulation'), names, bus)
+    access = parse_access(root.section('access'), {d.name: d.node_id for d in drafts if d.node_id is not None})
     issues.raise_if_errors()
     return BusConfig(bus=bus, master=master, nodes=tuple(d.config for d in drafts if d.config is not None),
-                     simulation=simulation, path=path, warnings=issues.warning_texts())
+                     simulation=simulation, access=access, path=path, warnings=issues.warning_texts())
 
 
 def load_bus_config(path: str | os.PathLike[str]) -> BusConfig:

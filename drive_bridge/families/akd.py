@@ -43,11 +43,17 @@ from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.families.akd_parameters import AkdParameters
+from drive_bridge.families.akd_parameters import (
+    AKD_PARAMETERS,
+    ASCII_CHANNEL,
+    COMMAND_SUB,
+    STORE_COMMANDS,
+    AkdParameters,
+)
 from drive_bridge.families.interface import DATA_DIR, DriveFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
-from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
 
 SYNC_EVERY_CYCLE = 1
 EVENT_DRIVEN = 255  # the AKD knows no type 254
@@ -272,6 +278,13 @@ class Akd(DriveFamily):
     def parameters(self, port: ParameterPort) -> AkdParameters:
         """ASCII parameters (DRV.ACC, FBUS.PARAM04, ...) over the ASCII channel 0x2026."""
         return AkdParameters(port)
+
+    def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
+        """Also DRV.NVSAVE's own object, and the ASCII command channel, which passes any command
+        (DRV.NVSAVE, DRV.NVLOAD among them): clients reach it through ~/param_write instead."""
+        store_objects = {spec.index for name, spec in AKD_PARAMETERS.items() if name in STORE_COMMANDS and spec.index}
+        return (super().stores_parameters(config, index, subindex) or index in store_objects
+                or (index, subindex) == (ASCII_CHANNEL, COMMAND_SUB))
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:

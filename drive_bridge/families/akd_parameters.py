@@ -87,6 +87,8 @@ REPLY_TIMEOUT = 1.0  # s waiting for the drive to have reply characters
 ABORT_NO_DATA = 0x08000024
 FLUSH = '~'  # makes a partial command left by a failed transaction invalid
 SAVE_COMMAND = 'DRV.NVSAVE'
+# commands that store or reload the parameters (0x1010 / 0x1011 do the same, akd.md §9.11)
+STORE_COMMANDS = frozenset({SAVE_COMMAND, 'DRV.NVLOAD'})
 
 _INT_RANGES = {
     'i8': (-(1 << 7), (1 << 7) - 1), 'i16': (-(1 << 15), (1 << 15) - 1), 'i32': (-(1 << 31), (1 << 31) - 1),
@@ -251,6 +253,9 @@ class AkdParameters(ParameterAccess):
             return self.read(spec.name)
         return ParameterValue(spec.name, output or text, self._number(text), self._unit(spec), *self._range(spec),
                               spec.access, spec.save_needed, spec.note)
+
+    def stores(self, name: str) -> bool:
+        return name.strip().upper() in STORE_COMMANDS
 
     def save(self, drive_object: int = 0) -> str:
         self._spec(SAVE_COMMAND, drive_object)

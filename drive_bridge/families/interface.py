@@ -18,6 +18,7 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | what is a fault, how is it reset?| ``fault_model``                                        |
 | which joint driver?              | ``create_joint_driver``                                |
 | vendor parameters?               | ``parameters``                                         |
+| which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
 | defaults for the config          | ``eds_for``, ``default_pdos``, ``max_axes``            |
 """
 from __future__ import annotations
@@ -41,6 +42,8 @@ if TYPE_CHECKING:
     from drive_bridge.families.parameters import ParameterAccess, ParameterPort
 
 DATA_DIR = Path(__file__).resolve().parent / 'data'
+STORE_PARAMETERS = 0x1010  # CiA 301: store parameters ("save")
+RESTORE_DEFAULT_PARAMETERS = 0x1011  # CiA 301: restore default parameters ("load")
 
 
 class BootDetection(str, Enum):
@@ -206,3 +209,9 @@ class DriveFamily:
     def parameters(self, port: ParameterPort) -> ParameterAccess | None:
         """Access to the drive's own parameters by their vendor names (None: not offered)."""
         return None
+
+    def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
+        """An SDO write of this object stores the node's parameters in non-volatile memory or
+        restores them (CiA 301: 0x1010, 0x1011; a family adds its own save and restore commands).
+        The ROS layer refuses such writes from clients unless the bus config allows them."""
+        return index in (STORE_PARAMETERS, RESTORE_DEFAULT_PARAMETERS)

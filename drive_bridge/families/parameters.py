@@ -112,6 +112,11 @@ class ParameterAccess(ABC):
     def save(self, drive_object: int = 0) -> str:
         """Store the parameters in the drive's non-volatile memory; returns what was done."""
 
+    def stores(self, name: str) -> bool:
+        """Writing ``name`` stores or restores the drive's parameters (a save or load command):
+        the bridge treats such a write as a save (``~/param_save``'s rule). By default none does."""
+        return False
+
     def for_slot(self, slot: int) -> ParameterAccess:
         """This access as the joint in axis ``slot`` of the node sees it: ``drive_object`` 0 then
         means that joint's own drive object (a node with several). By default the same access."""

@@ -112,6 +112,12 @@ class Bridge:
                 axis.halt(True)
                 self._held.add(joint)
 
+    def apply_parameters(self, params: BridgeParameters) -> None:
+        """Run-time parameter changes (ros/parameters.py validated them): rates and PVT timing."""
+        self.params = params
+        self.state_topics.apply(params)
+        self.trajectories.pvt_segment, self.trajectories.pvt_lookahead = params.pvt_segment, params.pvt_lookahead
+
     def _log_event(self, event: BusEvent) -> None:
         # one call site per severity: rclpy refuses a call site that changes severity
         logger = self.node.get_logger()

@@ -1,6 +1,7 @@
 """The managed (lifecycle) bus node: a stack can boot the drives without enabling motion.
 
-configure  = load the configuration, open the bus, boot the nodes (no axis is enabled)
+configure  = read the parameters, load the configuration, open the bus, boot the nodes (no axis
+             is enabled); from here until cleanup the start-time parameters are read-only
 activate   = publish state, accept commands and services (auto_enable enables here)
 deactivate = halt motion (HALT bit, trajectories stopped with a deceleration), refuse commands
 cleanup    = quick-stop enabled axes, close the bus
@@ -10,7 +11,7 @@ from __future__ import annotations
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from drive_bridge.ros.bridge import Bridge, StartupError, configuration
-from drive_bridge.ros.parameters import ParameterError, declare
+from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare, read, watch
 
 
 class BusLifecycleNode(LifecycleNode):
@@ -20,21 +21,31 @@ class BusLifecycleNode(LifecycleNode):
         super().__init__(node_name, **kwargs)
         self.config_path = config_path
         self.bridge: Bridge | None = None
-        self.params = None
+        self.params: BridgeParameters | None = None
         try:
             self.params = declare(self)
         except ParameterError as exc:
             self.get_logger().error(str(exc))  # configure will fail and say so again
+        # unconfigured: anything may be set (configure reads and checks it); configured: guarded
+        watch(self, lambda: self.params if self.bridge is not None else None, self._apply)
+
+    def _apply(self, params: BridgeParameters) -> None:
+        self.params = params
+        if self.bridge is not None:
+            self.bridge.apply_parameters(params)
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
-        if self.params is None:
-            self.get_logger().error('cannot configure: the parameters are invalid (see above)')
+        try:
+            params = read(self)  # the values set since start count
+        except ParameterError as exc:
+            self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
         try:
-            self.bridge = Bridge(self, self.params, configuration(self.params, self.config_path))
+            self.bridge = Bridge(self, params, configuration(params, self.config_path))
         except StartupError as exc:
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
+        self.params = params
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:

@@ -5,6 +5,7 @@ from rclpy.node import Node
 
 from drive_bridge.master.master import Master
 from drive_bridge.ros.bridge import Bridge, StartupError, declare_and_load
+from drive_bridge.ros.parameters import BridgeParameters, watch
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 __all__ = ['BusNode', 'StartupError']
@@ -17,7 +18,12 @@ class BusNode(Node):
         super().__init__(node_name, **kwargs)
         self.params, config = declare_and_load(self, config_path)
         self.bridge = Bridge(self, self.params, config)
+        watch(self, lambda: self.params, self._apply)
         self.bridge.set_active(True)
+
+    def _apply(self, params: BridgeParameters) -> None:
+        self.params = params
+        self.bridge.apply_parameters(params)
 
     @property
     def master(self) -> Master:

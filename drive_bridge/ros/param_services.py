@@ -5,8 +5,10 @@ their vendor gives them, through the drive family's parameter access
 The target is a joint (the node of its axis) or, when ``joint`` is empty, a configured
 ``node_id``; ``drive_object`` selects a drive object of nodes that have several (0: the
 joint's own, or the node's first). Unknown
-joints and nodes, families without parameter access and every ParameterError answer
-``success = False`` with the error in ``message``. As in :mod:`drive_bridge.ros.services`,
+joints and nodes, families without parameter access, every ParameterError and a refusal by the
+bus config's ``access`` rules (:mod:`drive_bridge.ros.access`; a write of a parameter the family
+says stores or restores, e.g. a save command, counts as a save) answer ``success = False`` with
+the error in ``message``. As in :mod:`drive_bridge.ros.services`,
 handlers await the blocking work in a thread pool, in a reentrant callback group, so the
 executor never waits on the bus.
 """
@@ -22,7 +24,10 @@ from rclpy.node import Node
 
 from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
 from drive_bridge.master.master import Master
-from drive_bridge.ros.pool import in_pool
+from drive_bridge.ros.access import AccessGuard
+from drive_bridge.ros.errors import RequestRefused
+from drive_bridge.ros.pool import BoundedPool, in_pool
+from drive_bridge.ros.services import MAX_PENDING_REQUESTS
 
 T = TypeVar('T')
 
@@ -35,9 +40,9 @@ class ParameterServices:
                  pool: concurrent.futures.ThreadPoolExecutor | None = None) -> None:
         self.node = node
         self.master = master
+        self.guard = AccessGuard(master.config.access, master)
         self._own_pool = pool is None
-        self.pool = pool or concurrent.futures.ThreadPoolExecutor(max_workers=4,
-                                                                  thread_name_prefix='drive_bridge-param')
+        self.pool = pool or BoundedPool(4, MAX_PENDING_REQUESTS, 'drive_bridge-param')
         group = ReentrantCallbackGroup()
         self.services = [
             node.create_service(ParamRead, '~/param_read', self.param_read, callback_group=group),
@@ -54,28 +59,38 @@ class ParameterServices:
         return await in_pool(self.node, self.pool, work)
 
     # -- targets --------------------------------------------------------------------------------
-    def _target(self, joint: str, node_id: int) -> tuple[ParameterAccess, str]:
-        """(the parameter access of the target's node, 'joint X: ' or '')."""
+    def _node_id(self, joint: str, node_id: int) -> int:
+        """The target's node id: the node of ``joint``, else ``node_id``."""
         if joint:
             axis = self.master.axes.get(joint)
             if axis is None:
                 raise ParameterError(f'unknown joint {joint!r}; this bus has {", ".join(self.master.axes) or "none"}')
-            return self.master.parameter_access(axis.node_id).for_slot(axis.config.slot), f'joint {joint}: '
+            return axis.node_id
         if not node_id:
             raise ParameterError('no target: give a joint, or a node_id (1..127) when joint is empty')
-        return self.master.parameter_access(node_id), ''
+        return node_id
 
-    async def _run(self, joint: str, node_id: int, action: Callable[[ParameterAccess], T],
-                   response: Any) -> T | None:
-        """The action's result, or None with ``response`` set to the failure."""
+    def _access(self, joint: str, node_id: int) -> ParameterAccess:
+        """The parameter access of the target's node (as the joint's axis slot sees it)."""
+        access = self.master.parameter_access(node_id)
+        return access.for_slot(self.master.axes[joint].config.slot) if joint else access
+
+    async def _run(self, joint: str, node_id: int, check: Callable[[int, ParameterAccess | None], None],
+                   action: Callable[[ParameterAccess], T], response: Any) -> T | None:
+        """The action's result, or None with ``response`` set to the failure. ``check`` applies
+        the access rules to the target node before anything reaches it: first without the
+        node's parameter access (None), then with it."""
         prefix = f'joint {joint}: ' if joint else ''
 
-        def work() -> tuple[T, str]:
-            access, where = self._target(joint, node_id)
-            return action(access), where
+        def work() -> T:
+            target = self._node_id(joint, node_id)
+            check(target, None)
+            access = self._access(joint, target)
+            check(target, access)
+            return action(access)
         try:
-            result, prefix = await self._in_pool(work)
-        except ParameterError as exc:
+            result = await self._in_pool(work)
+        except (ParameterError, RequestRefused) as exc:
             response.success, response.message = False, prefix + str(exc)
             return None
         except Exception as exc:  # a family's bug must still answer, and say what happened
@@ -84,6 +99,14 @@ class ParameterServices:
         response.success = True
         response.message = prefix
         return result
+
+    def _check_read(self, node_id: int, access: ParameterAccess | None) -> None:
+        if access is None:
+            self.guard.param_read(node_id)
+
+    def _check_save(self, node_id: int, access: ParameterAccess | None) -> None:
+        if access is None:
+            self.guard.param_save(node_id)
 
     @staticmethod
     def _fill(response: Any, value: ParameterValue) -> None:
@@ -106,7 +129,7 @@ class ParameterServices:
 
     # -- handlers -------------------------------------------------------------------------------
     async def param_read(self, request: ParamRead.Request, response: ParamRead.Response) -> ParamRead.Response:
-        value = await self._run(request.joint, request.node_id,
+        value = await self._run(request.joint, request.node_id, self._check_read,
                                 lambda access: access.read(request.parameter, request.drive_object), response)
         if value is not None:
             self._fill(response, value)
@@ -114,7 +137,9 @@ class ParameterServices:
         return response
 
     async def param_write(self, request: ParamWrite.Request, response: ParamWrite.Response) -> ParamWrite.Response:
-        value = await self._run(request.joint, request.node_id,
+        def check(node_id: int, access: ParameterAccess | None) -> None:
+            self.guard.param_write(node_id, access, request.parameter)
+        value = await self._run(request.joint, request.node_id, check,
                                 lambda access: access.write(request.parameter, request.value, request.drive_object),
                                 response)
         if value is not None:
@@ -123,8 +148,8 @@ class ParameterServices:
         return response
 
     async def param_save(self, request: ParamSave.Request, response: ParamSave.Response) -> ParamSave.Response:
-        done = await self._run(request.joint, request.node_id, lambda access: access.save(request.drive_object),
-                               response)
+        done = await self._run(request.joint, request.node_id, self._check_save,
+                               lambda access: access.save(request.drive_object), response)
         if done is not None:
             response.message += done
         return response

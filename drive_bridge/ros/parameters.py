@@ -1,9 +1,17 @@
-"""The bus node's ROS parameters: declared with descriptions, validated together."""
+"""The bus node's ROS parameters: declared with descriptions, validated together.
+
+Two classes (README, "ROS parameters"): start-time parameters act only while the node starts
+(lifecycle node: at configure) and are refused once it runs (configured), with the reason;
+run-time parameters (:data:`RUN_TIME`) are validated with the others and applied at once.
+"""
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
+from typing import Any
 
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -56,40 +64,93 @@ DESCRIPTIONS = {
 }
 
 
+# applied while the node runs; every other parameter acts only at start
+RUN_TIME = frozenset({'publish_rate', 'state_rate', 'diagnostics_period', 'pvt_segment', 'pvt_lookahead'})
+START_TIME = frozenset(f.name for f in fields(BridgeParameters)) - RUN_TIME
+_DEFAULTS = {f.name: f.default for f in fields(BridgeParameters)}
+# timers of the executor: faster ones would starve the services and subscriptions
+MAX_STATE_RATE = 100.0  # Hz
+MIN_DIAGNOSTICS_PERIOD = 0.05  # s
+
+
 class ParameterError(DriveBridgeError, ValueError):
     """One or more parameters are invalid; the message lists each."""
 
 
+def _typed(name: str, value: Any) -> Any:
+    """A ROS parameter value as the BridgeParameters field takes it."""
+    default = _DEFAULTS[name]
+    if isinstance(default, tuple):
+        return tuple(value or ())
+    if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
 def declare(node: Node) -> BridgeParameters:
     """Declare every parameter and return them validated (ParameterError lists all problems)."""
-    values = {}
     problems = []
     for f in fields(BridgeParameters):
         default = f.default
         declared_default = list(default) if isinstance(default, tuple) else default
-        descriptor = ParameterDescriptor(description=DESCRIPTIONS[f.name])
+        when = 'run time: applied at once' if f.name in RUN_TIME else 'start time: read-only once the node runs'
+        descriptor = ParameterDescriptor(description=DESCRIPTIONS[f.name], additional_constraints=when)
         if isinstance(default, tuple):
-            from rcl_interfaces.msg import ParameterType
             descriptor.type = ParameterType.PARAMETER_STRING_ARRAY
         # an empty list default would make rclpy infer a byte array: declare string arrays by type
         declared = Parameter.Type.STRING_ARRAY if isinstance(default, tuple) and not default else declared_default
         try:
-            value = node.declare_parameter(f.name, declared, descriptor).value
+            node.declare_parameter(f.name, declared, descriptor)
         except ParameterException as exc:
             problems.append(f'parameter {f.name}: {exc}')
-            continue
-        if isinstance(default, tuple):
-            value = tuple(value or ())
-        elif isinstance(default, float) and isinstance(value, int):
-            value = float(value)
-        values[f.name] = value
     if problems:
         raise ParameterError('; '.join(problems))
-    params = BridgeParameters(**values)
+    return read(node)
+
+
+def read(node: Node) -> BridgeParameters:
+    """The node's present parameter values, validated (ParameterError lists all problems)."""
+    params = BridgeParameters(**{f.name: _typed(f.name, node.get_parameter_or(f.name).value)
+                                 for f in fields(BridgeParameters)})
     problems = validate(params)
     if problems:
         raise ParameterError('; '.join(problems))
     return params
+
+
+def watch(node: Node, running: Callable[[], BridgeParameters | None],
+          apply: Callable[[BridgeParameters], None]) -> None:
+    """Guard the node's parameters at run time. ``running()``: the parameters in force, None
+    while the node is not running (lifecycle: unconfigured; then anything may be set and is
+    checked at configure). While it runs, a start-time parameter is refused with the reason,
+    and run-time ones are validated with the rest, then handed to ``apply``."""
+    def on_set(parameters: Sequence[Parameter]) -> SetParametersResult:
+        current = running()
+        if current is None:
+            return SetParametersResult(successful=True)
+        fixed = [p.name for p in parameters if p.name in START_TIME]
+        if fixed:
+            return SetParametersResult(successful=False, reason=(
+                f'{", ".join(fixed)}: {"acts" if len(fixed) == 1 else "act"} only at start, read-only while the node '
+                'runs; restart the node (lifecycle node: cleanup, set, configure) to change '
+                f'{"it" if len(fixed) == 1 else "them"}. Changeable at run time: {", ".join(sorted(RUN_TIME))}'))
+        problems = validate(_updated(current, parameters))
+        if problems:
+            return SetParametersResult(successful=False, reason='; '.join(problems))
+        return SetParametersResult(successful=True)
+
+    def on_applied(parameters: Sequence[Parameter]) -> None:
+        current = running()
+        if current is not None and any(p.name in RUN_TIME for p in parameters):
+            apply(_updated(current, parameters))
+
+    node.add_on_set_parameters_callback(on_set)
+    node.add_post_set_parameters_callback(on_applied)
+
+
+def _updated(current: BridgeParameters, parameters: Sequence[Parameter]) -> BridgeParameters:
+    known = [p for p in parameters if p.name in _DEFAULTS]
+    return dataclasses.replace(current, **{p.name: _typed(p.name, p.value) for p in known})
 
 
 def validate(params: BridgeParameters) -> list[str]:
@@ -99,8 +160,12 @@ def validate(params: BridgeParameters) -> list[str]:
     for name in ('sync_period', 'publish_rate', 'state_rate'):
         if getattr(params, name) < 0:
             problems.append(f'parameter {name} must be >= 0, got {getattr(params, name)}')
-    if params.diagnostics_period <= 0:
-        problems.append(f'parameter diagnostics_period must be > 0, got {params.diagnostics_period}')
+    if params.state_rate > MAX_STATE_RATE:
+        problems.append(f'parameter state_rate must be <= {MAX_STATE_RATE:g} Hz (0: on change only), '
+                        f'got {params.state_rate}')
+    if params.diagnostics_period < MIN_DIAGNOSTICS_PERIOD:
+        problems.append(f'parameter diagnostics_period must be >= {MIN_DIAGNOSTICS_PERIOD:g} s, '
+                        f'got {params.diagnostics_period}')
     if params.pvt_segment <= 0 or abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
         problems.append(f'parameter pvt_segment must be a positive whole number of ms, got {params.pvt_segment}')
     if params.pvt_lookahead < params.pvt_segment:

@@ -1,5 +1,8 @@
 """Services: typed SDO, NMT, and per-joint axis control.
 
+SDO and NMT requests pass the bus config's ``access`` rules first (:mod:`drive_bridge.ros.access`):
+a refusal answers ``success = False`` with the rule that refused it in ``message``.
+
 Handlers wait on the bus (SDO round trips, state transitions), so they run in a thread
 pool and the executor stays free: each handler is a coroutine awaiting the pool's
 result, in a callback group of its own (the default group would stall the node's timers
@@ -19,11 +22,16 @@ from rclpy.node import Node
 from drive_bridge.joint import JointDriver, JointError
 from drive_bridge.master.master import NMT_COMMANDS, Master
 from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
+from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
-from drive_bridge.ros.pool import in_pool
+from drive_bridge.ros.errors import RequestRefused
+from drive_bridge.ros.pool import BoundedPool, in_pool
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 T = TypeVar('T')
+SERVICE_WORKERS = 8
+# requests running or waiting at once (all services of the node); more are refused at once
+MAX_PENDING_REQUESTS = 32
 AxisAction = Callable[[JointDriver, float | None], str | None]
 
 
@@ -32,9 +40,11 @@ class BridgeServices:
         self.node = node
         self.master = master
         self.executor = executor
-        self.pool = concurrent.futures.ThreadPoolExecutor(max_workers=8, thread_name_prefix='drive_bridge-srv')
+        self.guard = AccessGuard(master.config.access, master)
+        self.pool = BoundedPool(SERVICE_WORKERS, MAX_PENDING_REQUESTS, 'drive_bridge-srv')
         # per-joint work of one request fans out here, never into self.pool (no nested waits)
-        self.joint_pool = concurrent.futures.ThreadPoolExecutor(max_workers=8, thread_name_prefix='drive_bridge-axis')
+        self.joint_pool = concurrent.futures.ThreadPoolExecutor(max_workers=SERVICE_WORKERS,
+                                                                thread_name_prefix='drive_bridge-axis')
         self.active = True
         group = ReentrantCallbackGroup()
         node.create_service(SdoRead, '~/sdo_read', self.sdo_read, callback_group=group)
@@ -66,6 +76,7 @@ class BridgeServices:
 
     async def sdo_read(self, request: SdoRead.Request, response: SdoRead.Response) -> SdoRead.Response:
         def work() -> None:
+            self.guard.sdo_read(request.node_id, request.index, request.subindex)
             data_type = self._resolve_type(request.node_id, request.index, request.subindex, request.data_type)
             used, value, raw = self.master.sdo_read(request.node_id, request.index, request.subindex, data_type)
             response.value = python_to_sdo_value(used, value, raw)
@@ -75,6 +86,7 @@ class BridgeServices:
 
     async def sdo_write(self, request: SdoWrite.Request, response: SdoWrite.Response) -> SdoWrite.Response:
         def work() -> None:
+            self.guard.sdo_write(request.node_id, request.index, request.subindex)
             data_type = self._resolve_type(request.node_id, request.index, request.subindex,
                                            request.value.data_type)
             value = sdo_value_to_python(request.value, data_type)
@@ -89,14 +101,17 @@ class BridgeServices:
             response.success = True
         except SdoError as exc:
             response.success, response.abort_code, response.message = False, exc.abort_code, str(exc)
-        except ValueError as exc:
+        except (ValueError, RequestRefused) as exc:
             response.success, response.message = False, str(exc)
         return response
 
     async def nmt(self, request: NmtCommand.Request, response: NmtCommand.Response) -> NmtCommand.Response:
+        def work() -> None:
+            self.guard.nmt(request.node_id)
+            self.master.nmt(request.command, request.node_id)
         try:  # in the pool: a command leaving OPERATIONAL first stops the node's axes (blocking)
-            await self._in_pool(lambda: self.master.nmt(request.command, request.node_id))
-        except ValueError as exc:
+            await self._in_pool(work)
+        except (ValueError, RequestRefused) as exc:
             response.success, response.message = False, str(exc)
             return response
         target = 'all nodes' if request.node_id == 0 else f'node {request.node_id}'
@@ -165,7 +180,11 @@ class BridgeServices:
 
         def all_joints() -> dict[str, str | None]:
             return dict(zip(names, self.joint_pool.map(one, names))) if len(names) > 1 else {names[0]: one(names[0])}
-        outcome = await self._in_pool(all_joints)
+        try:
+            outcome = await self._in_pool(all_joints)
+        except RequestRefused as exc:
+            response.success, response.message, response.failed = False, str(exc), names
+            return response
         failed = [j for j, error in outcome.items() if error]
         response.success = not failed
         response.failed = failed

@@ -62,9 +62,24 @@ class StateTopics:
         if self.params.publish_frames:
             self.master.add_frame_listener(self.on_frame)
         self.node.create_timer(0.5, self._count_frame_subscribers)
-        if self.params.state_rate > 0:
-            self.node.create_timer(1.0 / self.params.state_rate, lambda: self.publish_axis_states(force=True))
-        self.node.create_timer(self.params.diagnostics_period, self.publish_diagnostics)
+        # always created (cancelled while state_rate is 0), so apply() can change the rates
+        self._axis_timer = self.node.create_timer(1.0 / (self.params.state_rate or 1.0),
+                                                  lambda: self.publish_axis_states(force=True))
+        if not self.params.state_rate:
+            self._axis_timer.cancel()
+        self._diagnostics_timer = self.node.create_timer(self.params.diagnostics_period, self.publish_diagnostics)
+
+    def apply(self, params: BridgeParameters) -> None:
+        """The run-time parameters publish_rate, state_rate and diagnostics_period, at once."""
+        self.params = params
+        self._min_interval = 1.0 / params.publish_rate if params.publish_rate > 0 else 0.0
+        if params.state_rate > 0:
+            self._axis_timer.timer_period_ns = round(1e9 / params.state_rate)
+            self._axis_timer.reset()
+        else:
+            self._axis_timer.cancel()
+        self._diagnostics_timer.timer_period_ns = round(params.diagnostics_period * 1e9)
+        self._diagnostics_timer.reset()
 
     # -- joint states (cycle thread) ---------------------------------------------------------
     def on_cycle(self, _cycle: int) -> None:

@@ -210,6 +210,15 @@ class OpenDrive(DriveFamily):
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         return alarms.decode(node_id, node_name, data, timestamp)
 
+    def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
+        """Also C63 (save to non-volatile memory), at the sub-index the axis' array_offset gives
+        (both candidates while it is unknown)."""
+        if super().stores_parameters(config, index, subindex):
+            return True
+        offsets = {int(config.axes[0].drive['array_offset'])} if config.axes and \
+            'array_offset' in config.axes[0].drive else {0, 1}
+        return index == od.CONNECTIONS and subindex - od.C63 in offsets
+
     def parameters(self, port: ParameterPort) -> OpenDriveParameters:
         """P and C parameters by number (0x200D / 0x200E) with their format words."""
         driver = self._drivers.get(port.node_id)

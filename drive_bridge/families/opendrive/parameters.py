@@ -152,6 +152,9 @@ class OpenDriveParameters(ParameterAccess):
                                   drive_text=str(exc)) from exc
             return self._value(label, spec, self._read_internal(label, letter, number, spec))
 
+    def stores(self, name: str) -> bool:
+        return parse_name(name.strip()) == ('C', od.C63)
+
     def save(self, drive_object: int = 0) -> str:
         self._name('C63', drive_object)
         with self._lock:

@@ -169,6 +169,11 @@ class SinamicsS120(DriveFamily):
         """The DO number of an axis slot (p8743, known once the node booted)."""
         return self._do_of_slot.get(slot)
 
+    def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
+        """Also the parameter window of p0970/p0971/p0976/p0977 (reset, save, restore, save all)."""
+        return (super().stores_parameters(config, index, subindex)
+                or index in {s.PARAMETER_BASE + number for number in s.STORE_NUMBERS})
+
     def parameters(self, port: ParameterPort) -> S120Parameters:
         """p/r parameters of any drive object (0x2000 + number, selector p8630)."""
         config: NodeConfig | None = getattr(port, 'config', None)

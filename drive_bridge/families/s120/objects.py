@@ -31,6 +31,8 @@ PROFILE_OBJECTS = (0x6000, 0x67FF)  # slot 0's range of CiA 402 objects
 ERROR_FIELD = 0x1003  # sub 0 = 0 acknowledges the faults of every DO of the CU (§6.3)
 STORE_PARAMETERS = 0x1010
 SAVE_SIGNATURE = 0x65766173  # "save"
+# parameters that save or reset the parameters (p0977 = 0x1010 "save", p0976 = 0x1011 "load")
+STORE_NUMBERS = frozenset({970, 971, 976, 977})  # reset DO, save DO, restore all, save all
 
 # -- CiA 402 objects of slot 0 (+0x800 per slot) ---------------------------------------------------
 ABORT_CONNECTION_OPTION = 0x6007  # = p8641 of the DO

@@ -260,6 +260,10 @@ class S120Parameters(ParameterAccess):
         self._transfer(parsed, do, f'writing {text} to', data)
         return self.read(name, do)
 
+    def stores(self, name: str) -> bool:
+        parsed = parse_name(name.strip())
+        return parsed is not None and parsed.number in s.STORE_NUMBERS
+
     def save(self, drive_object: int = 0) -> str:
         try:
             self.port.sdo_write_raw(s.STORE_PARAMETERS, 1, SAVE_DATA)

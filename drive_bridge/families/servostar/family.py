@@ -47,12 +47,14 @@ from drive_bridge.families.registry import register_family
 from drive_bridge.families.servostar import boot, emcy, objects as o, pdos
 from drive_bridge.families.servostar.driver import ServostarAxis, mode_label
 from drive_bridge.families.servostar.options import parse_options
-from drive_bridge.families.servostar.parameters import ServostarParameters
+from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE, ServostarParameters
 from drive_bridge.families.servostar.units import DriveUnits
 from drive_bridge.joint import JointDriver, NodeIo
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
 
 log = logging.getLogger('drive_bridge.families.servostar')
+
+STORE_OBJECTS = frozenset(TABLE[name].index for name in STORE_COMMANDS)
 
 
 @register_family
@@ -177,6 +179,10 @@ class Servostar(DriveFamily):
     # -- EMCY and parameters ------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         return emcy.decode(node_id, node_name, data, timestamp)
+
+    def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
+        """Also the object channel's SAVE, LOAD and RSTVAR."""
+        return super().stores_parameters(config, index, subindex) or index in STORE_OBJECTS
 
     def parameters(self, port: ParameterPort) -> ServostarParameters:
         """ASCII parameters of the object channel 0x3500+ by name."""

@@ -476,6 +476,10 @@ def encode(value: int, kind: str) -> bytes:
     return value.to_bytes(size, 'little', signed=signed)
 
 
+# commands that store the parameters in the EEPROM or load them back (or the defaults)
+STORE_COMMANDS: Final = frozenset({'SAVE', 'LOAD', 'RSTVAR'})
+
+
 class ServostarParameters(ParameterAccess):
     """The object channel of one node (one instance per node; a lock serializes its calls)."""
 
@@ -578,6 +582,9 @@ class ServostarParameters(ParameterAccess):
         except Exception as exc:
             raise parameter_error(self.port, entry.name, f'the drive refused 0x{entry.index:04X}:01: {exc}',
                                   drive_text=str(exc)) from exc
+
+    def stores(self, name: str) -> bool:
+        return name.strip().upper() in STORE_COMMANDS
 
     def save(self, drive_object: int = 0) -> str:
         with self._lock:
