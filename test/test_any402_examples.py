@@ -10,6 +10,7 @@ import pytest
 
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import load_bus_config
+from drive_bridge.master.events import EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.sim import SimulatedBus
 from drive_bridge.streaming.executor import TrajectoryExecutor
@@ -36,6 +37,11 @@ def test_example_config_boots_and_moves(line: str) -> None:
         while axis.snapshot().mode_name != EXAMPLES[line] and time.monotonic() < deadline:
             time.sleep(0.01)
         assert axis.snapshot().mode_name == EXAMPLES[line]
+        # one start-up line for the node's map, one for the axis' mode, each once
+        lines = [e.message for e in master.events if e.kind is EventKind.CONFIGURED]
+        assert lines == [f'node {node.node_id} ({node.name}): {node.pdo_summary}',
+                         f"axis '{axis.joint}' (node {node.node_id} {node.name}, slot 0): mode {EXAMPLES[line]}"
+                         + lines[1].split(f'mode {EXAMPLES[line]}', 1)[1]]
         executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
         master.add_cycle_listener(executor.check)
         start = axis.snapshot().position

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode, mode_name
 from drive_bridge.model import ModeChoice
 
+STREAMING_ORDER = (int(Mode.CYCLIC_SYNC_POSITION), int(Mode.INTERPOLATED_POSITION), int(Mode.PROFILE_VELOCITY))
+
 
 @dataclass(frozen=True)
 class BootMode:
@@ -36,10 +38,10 @@ def pick(configured: int, auto: ModeChoice | None, supported: int | None, inferr
             return BootMode(configured, '', f'mode {mode_name(configured)} as configured ({source})')
         return BootMode(configured, f'the configured mode {mode_name(configured)} is not supported by the drive '
                                     f'({source}); set another mode (axis key `mode`)', '')
-    for mode in auto.candidates:
+    for mode in auto.candidates or STREAMING_ORDER:  # no candidates: the map was not derived (explicit PDOs)
         if has_mode(supported, mode):
             how = ' through the bridge\'s position loop' if mode == Mode.PROFILE_VELOCITY else ''
             return BootMode(mode, '', f'mode {mode_name(mode)}{how}, the best streaming mode of the drive ({source})')
-    streams = ', '.join(mode_name(m) for m in auto.candidates) or 'none'
+    streams = ', '.join(mode_name(m) for m in auto.candidates or STREAMING_ORDER)
     return BootMode(int(Mode.NO_MODE), f'no mode the bridge can stream: the drive has {source}, its PDO map '
                                        f'streams {streams}', '')

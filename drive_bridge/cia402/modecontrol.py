@@ -228,8 +228,10 @@ class ModeControl:
     def on_booted(self) -> str:
         """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
         configured one, or the best the drive can stream when the config names none); returns
-        the start-up line saying which and why."""
+        the start-up line saying which and why ('' when the family decides the modes)."""
         auto = self.config.auto_mode
+        if auto is None and self.accepted_modes is not None:
+            return ''  # the family knows the drive's modes better than its 0x6502
         supported, inferred = None, False
         if self.node.has_object(*self.key['supported_modes']):
             supported = _number(self.node.sdo_read(*self.key['supported_modes']))

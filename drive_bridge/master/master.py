@@ -292,7 +292,9 @@ class Master:
             if settle is None:
                 continue
             try:
-                self._emit(EventKind.CONFIGURED, Level.INFO, settle(), node)
+                line = settle()
+                if line:
+                    self._emit(EventKind.CONFIGURED, Level.INFO, line, node)
             except DriveBridgeError as exc:
                 self._emit(EventKind.ERROR, Level.WARN, f'{axis_cfg.joint}: modes not read: {exc}', node)
 
