@@ -89,3 +89,15 @@ def test_a_refusal_that_repeats_is_permanent_and_reported_once(caplog: pytest.Lo
     finally:
         master.stop()
         sim.stop()
+
+
+def test_the_start_up_line_says_what_is_mapped_polled_and_why() -> None:
+    # the older FAULHABER: fixed maps with only the controlword and the statusword
+    config = parse_bus_config(bus('605.3150.51-V-EK-3-60.eds', 'x'), 'drives.yaml', REAL_EDS)
+    (node,) = config.nodes
+    assert node.pdo_summary == (
+        'PDO map (fitted to the EDS; the standard map does not fit: RPDO1 has a fixed mapping): RPDO1 6040; '
+        'TPDO1 6041; by SDO: 607A (not PDO-mappable), 60FF (not PDO-mappable), 6060 (not PDO-mappable); '
+        'polled: 6064 (not PDO-mappable), 6061 (not PDO-mappable); estimated from position: 606C (not PDO-mappable)')
+    assert node.polled == ((0x6064, 0), (0x6061, 0)) and node.axes[0].estimated_velocity
+    assert node.guard_time_ms == 100 and node.heartbeat_producer_ms == 0  # no 0x1017: guarded

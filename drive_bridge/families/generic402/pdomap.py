@@ -208,7 +208,7 @@ def plan(od: ObjectDictionary, node_id: int, axes: Sequence[AxisConfig], synchro
         why = 'the standard map'
         maps = (rpdos, tpdos)
         if problem:
-            why = f'fitted to {eds_name} (the standard map does not fit: {problem})'
+            why = f'fitted to {eds_name}; the standard map does not fit: {problem}'
             fits: dict[Kind, _Fit] = {}
             for kind, wanted in (('rpdo', OUTPUTS), ('tpdo', INPUTS)):
                 fit = _Fit(od, kind, pdo_slots(od, kind, node_id))  # type: ignore[arg-type]
@@ -244,7 +244,7 @@ def plan(od: ObjectDictionary, node_id: int, axes: Sequence[AxisConfig], synchro
 
     def listed(keys: Sequence[ObjectKey]) -> str:
         return ', '.join(f'{_name(k)} ({reasons.get(k, "not in the map")})' for k in keys) or 'nothing'
-    summary = (f'PDO map {why}: {_text(rpdos, "RPDO")}; {_text(tpdos, "TPDO")}; by SDO: {listed(by_sdo)}; '
+    summary = (f'PDO map ({why}): {_text(rpdos, "RPDO")}; {_text(tpdos, "TPDO")}; by SDO: {listed(by_sdo)}; '
                f'polled: {listed(polled)}'
                + (f'; estimated from position: {listed(derived)}' if derived else ''))
     return PdoPlan(rpdos, tpdos, tuple(planned_axes), tuple(polled), summary)
