@@ -152,6 +152,7 @@ def test_a_drive_from_its_eds_follows_trajectories_through_ros(ros_module: RosHa
         errors = [abs(p - d.position) for t, p in client.since(joint, t0)
                   if (d := bridge.trajectories.desired(joint, stream_time(t))) is not None]
         errors.sort()
+        print(f'{name}: path error 95 % {errors[int(0.95 * len(errors))]:.4f} rad, max {errors[-1]:.4f} rad')
         assert len(errors) > 10 and errors[int(0.95 * len(errors))] < PATH_TOLERANCE and errors[-1] < PATH_LIMIT, \
             (name, errors[int(0.95 * len(errors))], errors[-1])
         if '606C' not in tpdo:  # no PDO carries the velocity: derived from the position, and said so
