@@ -11,6 +11,7 @@ from collections.abc import Callable, Collection
 from canopen import ObjectDictionary
 
 from drive_bridge.cia402 import objects as obj
+from drive_bridge.cia402.bootmodes import STREAMING_ORDER
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
 from drive_bridge.families.generic402.eds import ObjectKey, variable
 
@@ -26,13 +27,13 @@ _NEEDS: dict[Mode, tuple[tuple[int, ...], int | None]] = {
     Mode.CYCLIC_SYNC_TORQUE: ((obj.TARGET_TORQUE, obj.INTERPOLATION_TIME_PERIOD), obj.TARGET_TORQUE),
 }
 
-# what the bridge streams a trajectory in, best first, and what must be in an RPDO for it
-# (None: may go by SDO; the bridge's position loop tolerates the delay)
-STREAMING_ORDER: tuple[tuple[Mode, ObjectKey | None], ...] = (
-    (Mode.CYCLIC_SYNC_POSITION, (obj.TARGET_POSITION, 0)),
-    (Mode.INTERPOLATED_POSITION, (obj.INTERPOLATION_DATA_RECORD, 1)),
-    (Mode.PROFILE_VELOCITY, None),
-)
+# what must be in an RPDO to stream in each of the bridge's streaming modes (None: may go by
+# SDO; the bridge's position loop tolerates the delay); the order is cia402.bootmodes'
+_STREAM_NEEDS: dict[int, ObjectKey | None] = {
+    Mode.CYCLIC_SYNC_POSITION: (obj.TARGET_POSITION, 0),
+    Mode.INTERPOLATED_POSITION: (obj.INTERPOLATION_DATA_RECORD, 1),
+    Mode.PROFILE_VELOCITY: None,
+}
 
 
 def inferred_support(od: ObjectDictionary, slot: int) -> int:
@@ -65,7 +66,8 @@ def streamable(slot: int, in_rpdo: Callable[[ObjectKey], bool], exists: Collecti
     """The modes, best first, the bridge can stream with this map: CSP with 0x607A in an RPDO,
     IP linear with 0x60C1:1 in an RPDO, else its position loop over profile velocity (0x60FF)."""
     modes = []
-    for mode, needed in STREAMING_ORDER:
+    for mode in STREAMING_ORDER:
+        needed = _STREAM_NEEDS[mode]
         if needed is None:
             if (obj.for_axis(obj.TARGET_VELOCITY, slot), 0) in exists:
                 modes.append(int(mode))
