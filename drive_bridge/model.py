@@ -152,6 +152,15 @@ class HomingConfig:
 
 
 @dataclass(frozen=True)
+class ModeChoice:
+    """The axis' default mode is picked at boot from the drive's 0x6502 (the config names none):
+    the first of ``candidates`` the drive supports."""
+
+    candidates: tuple[int, ...] = ()  # modes the bridge can stream with this axis' PDO map, best first
+    inferred_support: int | None = None  # 0x6502 bits from the EDS's objects when 0x6502 is absent
+
+
+@dataclass(frozen=True)
 class AxisConfig:
     """One CiA 402 axis of a node, mapped to one joint."""
 
@@ -170,6 +179,8 @@ class AxisConfig:
     # the drive family's own per-axis settings (the axis key `drive`), as its
     # parse_axis_options validated them
     drive: Mapping[str, Any] = field(default_factory=dict)
+    auto_mode: ModeChoice | None = None  # None: ``mode`` as configured
+    estimated_velocity: bool = False  # 0x606C is not in a PDO: velocity is derived from position
     where: str = ''
 
 
@@ -193,6 +204,8 @@ class NodeConfig:
     reset_communication: bool = True  # NMT reset communication before configuring
     timeouts: Timeouts = field(default_factory=Timeouts)
     axes: tuple[AxisConfig, ...] = ()
+    polled: tuple[tuple[int, int], ...] = ()  # inputs in no TPDO, read by SDO at a lower rate
+    pdo_summary: str = ''  # what the derived default map carries and why (logged at start)
     where: str = ''
 
     def __hash__(self) -> int:  # the OD is not hashable; a node is identified by name and id

@@ -86,7 +86,10 @@ class Axis(ModeControl):
         self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
         self._disable_on_return = False  # after the node was configured again (on_node_reset)
         self._last_state = State.UNKNOWN  # the state seen by the last cycle
-        self._mode = config.mode
+        # an axis whose mode is picked at boot (on_booted) requests none until then
+        self._mode = config.mode if config.auto_mode is None else int(Mode.NO_MODE)
+        self._mode_problem = ''
+        self._estimate: tuple[float, float, float] | None = None  # (position, stamp, velocity)
         self._pp_phase = PP_IDLE  # profile position set-point handshake
         self._pp_done = 0.0  # statusword stamp when the last handshake completed
         self._homing = False
@@ -111,12 +114,30 @@ class Axis(ModeControl):
         node.add_input_listener(self._on_input)
 
     # -- bus side ---------------------------------------------------------------------------
-    def _on_input(self, keys: frozenset[tuple[int, int]], _stamp: float) -> None:
+    def _on_input(self, keys: frozenset[tuple[int, int]], stamp: float) -> None:
+        if self.config.estimated_velocity and self.key['position'] in keys:
+            self._estimate_velocity(stamp)
         if self.key['statusword'] in keys or self.key['mode_display'] in keys:
             with self._cond:
                 self._cond.notify_all()
 
+    def _estimate_velocity(self, stamp: float) -> None:
+        """Velocity from two position samples (the drive's 0x606C is in no PDO)."""
+        position = self.node.read(*self.key['position'])
+        if position is None:
+            return
+        last = self._estimate
+        velocity = 0.0
+        if last is not None and stamp > last[1]:  # counts/s, in the drive's velocity units
+            scaling = self.config.scaling
+            velocity = (position - last[0]) / (stamp - last[1]) * scaling.position_factor / scaling.velocity_factor
+        elif last is not None:
+            velocity = last[2]
+        self._estimate = (float(position), stamp, velocity)
+
     def _value(self, name: str) -> int | float | None:
+        if name == 'velocity' and self.config.estimated_velocity:
+            return self._estimate[2] if self._estimate is not None else None
         return self.node.read(*self.key[name])
 
     @property
@@ -149,7 +170,7 @@ class Axis(ModeControl):
 
     def _write(self, name: str, value: int | float) -> None:
         key = self.key[name]
-        if self._written.get(key) != value:
+        if self._written.get(key) != value and (key in self._written or self.node.has_object(*key)):
             self._written[key] = value
             self.node.write(*key, value)
 
@@ -345,4 +366,6 @@ class Axis(ModeControl):
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
             following_error=(bool(sw & sm.SW_OMS_13)
                              and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),
-            halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(), message=self._message)
+            halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
+            message=self._message or self._mode_problem or (
+                'velocity estimated from position (no PDO carries 0x606C)' if self.config.estimated_velocity else ''))

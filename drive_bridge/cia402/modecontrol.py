@@ -9,9 +9,10 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia402 import objects as obj, statemachine as sm
+from drive_bridge.cia402 import bootmodes, objects as obj, statemachine as sm
 from drive_bridge.cia402.modes import (
     CYCLIC_MODES,
     POSITION_MODES,
@@ -24,12 +25,14 @@ from drive_bridge.cia402.modes import (
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
-from drive_bridge.model import AxisConfig, Timeouts
+from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
+AUTO_LOOP = PositionLoopConfig(gain=10.0)  # 1/s: the loop of an axis put in pv at boot without one
 
 
 def _number(value: int | float | str | bytes) -> int:
@@ -74,6 +77,7 @@ class ModeControl:
     _message: str
     _loop: PositionLoop | None  # the bridge's position loop (velocity modes, 'position-loop' strategy)
     _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
+    _mode_problem: str  # why the axis has no usable mode ('' when it has one)
 
     # provided by the state-machine driver
     @property
@@ -221,6 +225,37 @@ class ModeControl:
             raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not supported by the drive '
                             f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
 
+    def on_booted(self) -> str:
+        """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
+        configured one, or the best the drive can stream when the config names none); returns
+        the start-up line saying which and why ('' when the family decides the modes)."""
+        auto = self.config.auto_mode
+        if auto is None and self.accepted_modes is not None:
+            return ''  # the family knows the drive's modes better than its 0x6502
+        supported, inferred = None, False
+        if self.node.has_object(*self.key['supported_modes']):
+            supported = _number(self.node.sdo_read(*self.key['supported_modes']))
+        elif auto is not None and auto.inferred_support is not None:
+            supported, inferred = auto.inferred_support, True
+        chosen = bootmodes.pick(self.config.mode, auto, supported, inferred)
+        if auto is not None and chosen.mode in (Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION):
+            self._write_interpolation_period(chosen.mode == Mode.INTERPOLATED_POSITION)
+        with self._cond:
+            self.supported_modes = None if inferred else supported
+            self._mode_problem = chosen.problem
+            if auto is not None and not chosen.problem and chosen.mode != self._mode:
+                looped = chosen.mode in VELOCITY_MODES
+                loop = self.config.position_loop if self.config.position_loop.enabled or not looped else AUTO_LOOP
+                self.config = replace(self.config, mode=chosen.mode, position_mode=chosen.mode, position_loop=loop)
+                self._mode = chosen.mode
+                self._targets.clear()
+                self._source = None
+        return f'{self._where()}: {chosen.problem or chosen.note}'
+
+    def _require_mode(self) -> None:
+        if self._mode_problem:
+            raise AxisError(f'{self._where()}: {self._mode_problem}')
+
     def set_mode(self, mode: int | str, timeout: float | None = None) -> None:
         """Write 0x6060 and wait until 0x6061 confirms it."""
         self._require_available()
@@ -239,17 +274,31 @@ class ModeControl:
             self._mode = code
         wait = timeout if timeout is not None else self.timeouts.mode_switch
         self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+        self._mode_problem = ''  # the drive took it
+
+    def _write_interpolation_period(self, interpolated: bool) -> None:
+        """The SYNC period into 0x60C2 (CSP and IP interpolate over it), and for IP the
+        sub-mode and a cleared buffer; objects the drive keeps fixed are left as they are."""
+        try:
+            if interpolated:
+                self._prepare_interpolation()
+            else:
+                for name, value in self._period_writes():
+                    if self.node.has_object(*self.key[name]):
+                        self.node.sdo_write(*self.key[name], value)
+        except DriveBridgeError:
+            pass  # read-only on this drive (its EDS makes it const): the drive's own period
+
+    def _period_writes(self) -> list[tuple[str, int]]:
+        period_ms = self.cycle_period * 1000.0
+        if abs(period_ms - round(period_ms)) < 1e-6 and 1 <= round(period_ms) <= 255:
+            return [('ip_units', round(period_ms)), ('ip_index', -3)]
+        return [('ip_units', round(period_ms * 10)), ('ip_index', -4)]  # 100 us units
 
     def _prepare_interpolation(self) -> None:
         """Before entering IP: sub-mode (0x60C0), period = the SYNC period (0x60C2, both
         sub-indices, in ms: the only unit many drives take), and a cleared buffer (0x60C4:6)."""
-        period_ms = self.cycle_period * 1000.0
-        writes = [('ip_submode', self.config.ip_submode)]
-        if abs(period_ms - round(period_ms)) < 1e-6 and 1 <= round(period_ms) <= 255:
-            writes += [('ip_units', round(period_ms)), ('ip_index', -3)]
-        else:  # 100 us units
-            writes += [('ip_units', round(period_ms * 10)), ('ip_index', -4)]
-        writes += [('ip_clear', 0), ('ip_clear', 1)]
+        writes = [('ip_submode', self.config.ip_submode), *self._period_writes(), ('ip_clear', 0), ('ip_clear', 1)]
         for name, value in writes:
             if self.node.has_object(*self.key[name]):
                 self.node.sdo_write(*self.key[name], value)
@@ -295,6 +344,7 @@ class ModeControl:
     def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
         """A CiA 402 axis follows any trajectory its streaming mode takes; a velocity-only
         one only in a velocity mode (its positions are integrated, not measured)."""
+        self._require_mode()
         if not has_positions and self.stream_strategy() != 'cyclic-velocity':
             raise AxisError(f'{self._where()}: a trajectory without positions needs a velocity streaming '
                             f'mode (csv); mode is {mode_name(self._mode)}')
@@ -336,6 +386,7 @@ class ModeControl:
     def check_command(self, position: float | None = None, velocity: float | None = None,
                       effort: float | None = None) -> None:
         """Raise AxisError if this command cannot be applied now (limits, mode, state)."""
+        self._require_mode()
         self._check_limits(position, velocity, effort)
         mode = self._mode
         if position is not None and mode not in POSITION_MODES and not self._looped():

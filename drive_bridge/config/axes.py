@@ -20,7 +20,15 @@ from drive_bridge.config.odcheck import hex_index, known_name
 from drive_bridge.config.reader import Section, describe, to_str
 from drive_bridge.config.scaling import parse_scaling
 from drive_bridge.families import DriveFamily
-from drive_bridge.model import AxisConfig, AxisLimits, AxisScaling, HomingConfig, JointType, PositionLoopConfig
+from drive_bridge.model import (
+    AxisConfig,
+    AxisLimits,
+    AxisScaling,
+    HomingConfig,
+    JointType,
+    ModeChoice,
+    PositionLoopConfig,
+)
 
 JOINT_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 CORE_OBJECTS = (obj.CONTROLWORD, obj.STATUSWORD, obj.MODES_OF_OPERATION, obj.MODES_OF_OPERATION_DISPLAY,
@@ -84,8 +92,13 @@ def _mode(sec: Section, key: str, family: DriveFamily) -> int:
 
 
 def _modes(sec: Section, family: DriveFamily) -> dict[str, Any]:
-    """AxisConfig's mode keyword arguments (the family's defaults where a key is absent)."""
-    return {key: _mode(sec, key, family) for key in _MODE_KINDS}
+    """AxisConfig's mode keyword arguments (the family's defaults where a key is absent); an
+    axis of a family that takes its modes from the drive and names no position mode gets
+    its mode picked at boot (``auto_mode``)."""
+    modes: dict[str, Any] = {key: _mode(sec, key, family) for key in _MODE_KINDS}
+    if family.modes_from_drive and 'mode' not in sec and 'position_mode' not in sec:
+        modes['auto_mode'] = ModeChoice()
+    return modes
 
 
 def _limits(sec: Section | None) -> AxisLimits:

@@ -6,7 +6,7 @@ one error and not one per object.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +15,7 @@ from canopen import ObjectDictionary
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.config import keys
 from drive_bridge.config.axes import AxisDraft, check_axis_objects, parse_axes
+from drive_bridge.config.bootcheck import check_heartbeat_limits, fit_supervision
 from drive_bridge.config.eds import EdsError, read_object_dictionary
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.guarding import Supervision, check_guarding_objects, parse_supervision
@@ -22,6 +23,7 @@ from drive_bridge.config.pdo import PdoDraft, family_drafts, parse_pdo_table, re
 from drive_bridge.config.reader import Section, describe, suggestion
 from drive_bridge.config.sdo import parse_boot_sdo
 from drive_bridge.families import DriveFamily, family_names, get_family
+from drive_bridge.families.interface import PdoPlan
 from drive_bridge.model import Identity, MasterConfig, NodeConfig, Timeouts
 
 NODE_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
@@ -153,15 +155,21 @@ def _axes_loc(node: Section) -> Loc:
 
 
 def _pdos(ctx: NodeContext, node: Section, name: str, node_id: int, family: DriveFamily,
-          axes: list[AxisDraft], defaults_allowed: bool) -> list[PdoDraft]:
+          axes: list[AxisDraft], defaults_allowed: bool,
+          od: ObjectDictionary | None) -> tuple[list[PdoDraft], PdoPlan | None]:
     synchronous = ctx.master.sync_period > 0
     transmission = 1 if synchronous else 255
     drafts: list[PdoDraft] = []
     explicit = {kind: parse_pdo_table(ctx.issues, node.get(kind), node.loc(kind), kind, node_id, name, transmission)
                 for kind in ('rpdo', 'tpdo') if kind in node}
+    plan = None
     if len(explicit) < 2 and defaults_allowed:
         try:
-            rpdos, tpdos = family.default_pdos(node_id, [d.axis for d in axes], synchronous)
+            if od is not None and not explicit:
+                plan = family.plan_pdos(node_id, [d.axis for d in axes], synchronous, od)
+                rpdos, tpdos = plan.rpdos, plan.tpdos
+            else:
+                rpdos, tpdos = family.default_pdos(node_id, [d.axis for d in axes], synchronous)
             defaults = {'rpdo': rpdos, 'tpdo': tpdos}
         except ValueError as exc:
             ctx.issues.error(node.where, f"family '{family.name}' has no default PDO map for this node: {exc}")
@@ -171,7 +179,7 @@ def _pdos(ctx: NodeContext, node: Section, name: str, node_id: int, family: Driv
                 explicit[kind] = family_drafts(configs, kind, node.where, family.name, name)  # type: ignore[arg-type]
     for kind in ('rpdo', 'tpdo'):
         drafts.extend(explicit.get(kind, []))
-    return drafts
+    return drafts, plan
 
 
 def _own_section(ctx: NodeContext, name: str, value: Any) -> Section | None:
@@ -214,11 +222,16 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     boot_sdo = parse_boot_sdo(issues, sdo_items, od, eds_name, ctx.file)
     identity = Identity(**{key: node.get_int(key, lo=0, hi=0xFFFFFFFF, allow_str=True) for key in keys.IDENTITY})
     supervision = parse_supervision(node, name, family.name, family.has_heartbeat)
+    if od is not None:
+        supervision = fit_supervision(node, od, eds_name, supervision)
     consumer = _heartbeats(ctx, node, supervision)
     reset = node.get_bool('reset_communication', family.nmt_reset_communication)
     timeouts = _timeouts(node)
+    plan = None
     if node_id is not None:
-        draft.pdos = _pdos(ctx, node, name, node_id, family, draft.axes, defaults_allowed=not too_many)
+        draft.pdos, plan = _pdos(ctx, node, name, node_id, family, draft.axes, not too_many, od)
+    if plan is not None:  # the family's map leaves the axes as it says (modes it can stream, estimates)
+        draft.axes = [replace(d, axis=a) for d, a in zip(draft.axes, plan.axes, strict=True)]
     if od is None or node_id is None:
         return draft
     # a wrong axis count or slot already explains why the family's map cannot fit: say it once
@@ -234,6 +247,8 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
                                      [d.axis.slot for d in draft.axes]):
         issues.error(pdo_loc, problem)
     check_guarding_objects(node, supervision, od, eds_name, sdo_items)
+    check_heartbeat_limits(node, od, eds_name, supervision, consumer, ctx.master,
+                           Loc('master').key('heartbeat_producer'))
     draft.config = NodeConfig(
         name=name, node_id=node_id, family=family.name, od=od, eds_path=eds_path, identity=identity,
         boot_sdo=boot_sdo, rpdo=tuple(p.config for p in draft.pdos if p.kind == 'rpdo'),
@@ -241,5 +256,6 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
         heartbeat_producer_ms=supervision.heartbeat_producer_ms, heartbeat_consumer=consumer,
         guard_time_ms=supervision.guard_time_ms, life_time_factor=supervision.life_time_factor,
         reset_communication=reset, timeouts=timeouts,
-        axes=tuple(d.axis for d in draft.axes), where=f'{ctx.file}: {node.where.path}')
+        axes=tuple(d.axis for d in draft.axes), polled=plan.polled if plan else (),
+        pdo_summary=plan.summary if plan else '', where=f'{ctx.file}: {node.where.path}')
     return draft

@@ -19,11 +19,12 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | which joint driver?              | ``create_joint_driver``                                |
 | vendor parameters?               | ``parameters``                                         |
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
-| defaults for the config          | ``eds_for``, ``default_pdos``, ``max_axes``            |
+| defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
 """
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -69,6 +70,19 @@ class PdoConfiguration(str, Enum):
     SELECT_BY_NUMBER = 'select by number'  # the family's ``select_pdo`` picks a predefined PDO
 
 
+@dataclass(frozen=True)
+class PdoPlan:
+    """A node's default process data, fitted to its EDS: the PDOs, its axes as the map leaves
+    them (e.g. velocity estimated, the modes the map can stream), the inputs read by SDO
+    instead, and one line saying what was mapped and why."""
+
+    rpdos: tuple[PdoConfig, ...]
+    tpdos: tuple[PdoConfig, ...]
+    axes: tuple[AxisConfig, ...]
+    polled: tuple[tuple[int, int], ...] = ()
+    summary: str = ''
+
+
 class DriveFamily:
     """What the bridge knows about one line of drives beyond their EDS.
 
@@ -85,7 +99,9 @@ class DriveFamily:
     pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of the family's PVT interpolation, if any
     default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
     interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
-    accepted_modes: ClassVar[frozenset[int] | None] = None  # the modes it takes, when 0x6502 says otherwise
+    accepted_modes: ClassVar[frozenset[int] | None] = None
+    # an axis that names no mode gets the best streaming mode the drive's 0x6502 has (at boot)
+    modes_from_drive: ClassVar[bool] = False  # the modes it takes, when 0x6502 says otherwise
     # default of the axis keys mode / position_mode / velocity_mode / effort_mode, where they
     # differ from csp / csp / csv / cst
     default_modes: ClassVar[Mapping[str, str]] = {}
@@ -112,6 +128,13 @@ class DriveFamily:
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
         """(RPDOs, TPDOs) used when the config gives no mapping."""
         return (), ()
+
+    def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                  od: ObjectDictionary) -> PdoPlan:
+        """The default process data of a node whose config gives no mapping, for its EDS
+        ``od``; by default the family's fixed map (``default_pdos``)."""
+        rpdos, tpdos = self.default_pdos(node_id, axes, synchronous)
+        return PdoPlan(rpdos, tpdos, tuple(axes))
 
     def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:
         """Adapt the loaded EDS to the node's configured axis slots before it is checked (e.g.

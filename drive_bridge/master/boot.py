@@ -40,6 +40,18 @@ class BootError(DriveBridgeError):
         self.abort_code = abort_code
 
 
+# SDO abort classes a repeated identical write always gets again (CiA 301): access (0x0601),
+# object or sub-index absent (0x0602, 0x0609 0011), PDO mapping (0x0604), value range (0x0609)
+_PERMANENT_ABORT_CLASSES = frozenset({0x0601, 0x0602, 0x0604, 0x0609})
+
+
+def repeats_identically(error: BootError, previous: BootError | None) -> bool:
+    """The boot refusal is the same as the last attempt's and of a kind that does not go
+    away by retrying (a value the drive's object refuses, an object it lacks)."""
+    return (previous is not None and error.abort_code != 0 and error.abort_code == previous.abort_code
+            and str(error) == str(previous) and error.abort_code >> 16 in _PERMANENT_ABORT_CLASSES)
+
+
 def _sdo_step(node: NodeRuntime, step: str, action: Callable[[], object]) -> object:
     try:
         return action()
@@ -157,7 +169,8 @@ def _write_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str)
     pdo_map.trans_type = config.transmission
     if kind == 'TPDO':
         pdo_map.inhibit_time = (config.inhibit_time or None) if 3 in subs else None
-        pdo_map.event_timer = config.event_timer if 5 in subs else None
+        comm = (0x1800 if kind == 'TPDO' else 0x1400) + config.number - 1
+        pdo_map.event_timer = config.event_timer if 5 in subs and _has(node, comm, 5) else None
         pdo_map.sync_start_value = (config.sync_start or None) if 6 in subs else None
     for entry in config.mapping:
         pdo_map.add_variable(entry.index, entry.subindex, entry.bits)
@@ -188,6 +201,31 @@ def _select_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str
         node.sdo.write(comm_index, subindex, value)
 
 
+def _writable(node: NodeRuntime, index: int, subindex: int) -> bool:
+    var = od_variable(node.config.od, index, subindex)
+    return var is not None and 'w' in var.access_type
+
+
+def _write_by_sdo(node: NodeRuntime, config: PdoConfig, kind: str, comm_index: int) -> None:
+    """A PDO whose EDS makes its COB-ID or its mapping read-only (canopen's PdoMap writes
+    both): the parameters the EDS lets us write, the COB-ID invalid meanwhile if it can be."""
+    map_index = comm_index + 0x200
+    cob_writable = _writable(node, comm_index, 1)
+    if cob_writable:
+        node.sdo.write(comm_index, 1, config.cob_id | COB_ID_INVALID)
+    writes = [(2, config.transmission)] + ([(5, config.event_timer)] if kind == 'TPDO' else [])
+    for subindex, value in writes:
+        if subindex in node.family.pdo_comm_subindices and _writable(node, comm_index, subindex):
+            node.sdo.write(comm_index, subindex, value)
+    if _writable(node, map_index, 1):
+        node.sdo.write(map_index, 0, 0)
+        for number, entry in enumerate(config.mapping, start=1):
+            node.sdo.write(map_index, number, entry.index << 16 | entry.subindex << 8 | entry.bits)
+        node.sdo.write(map_index, 0, len(config.mapping))
+    if config.enabled and cob_writable:
+        node.sdo.write(comm_index, 1, config.cob_id)
+
+
 def configure_pdos(node: NodeRuntime) -> None:
     """Write every configured PDO; disable the other PDOs the node has."""
     for kind, configs, maps, comm_base in (('RPDO', node.config.rpdo, node.remote.rpdo, 0x1400),
@@ -201,7 +239,10 @@ def configure_pdos(node: NodeRuntime) -> None:
                 raise BootError(node, step, f'the EDS has no {kind}{config.number} '
                                             f'(0x{comm_base + config.number - 1:04X})') from None
             try:
-                if node.family.pdo_configuration is PdoConfiguration.SELECT_BY_NUMBER:
+                comm_index = comm_base + config.number - 1
+                if not _writable(node, comm_index, 1) or not _writable(node, comm_index + 0x200, 1):
+                    _write_by_sdo(node, config, kind, comm_index)
+                elif node.family.pdo_configuration is PdoConfiguration.SELECT_BY_NUMBER:
                     _select_pdo(node, pdo_map, config, kind, comm_base + config.number - 1)
                 else:
                     _write_pdo(node, pdo_map, config, kind)
@@ -213,7 +254,7 @@ def configure_pdos(node: NodeRuntime) -> None:
                 raise BootError(node, step, f'{text}: {exc}', code) from exc
         for index in range(comm_base, comm_base + 0x200):
             number = index - comm_base + 1
-            if number in configured or not _has(node, index, 1):
+            if number in configured or not _writable(node, index, 1):
                 continue
             step = f'disable unused {kind}{number}'
             cob_id = int(_sdo_read(node, step, index, 1))

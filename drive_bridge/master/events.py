@@ -7,6 +7,7 @@ from enum import Enum
 
 
 class EventKind(str, Enum):
+    CONFIGURED = 'configured'  # what a node's PDO map or an axis' mode came out as, and why
     BOOTED = 'booted'
     BOOT_FAILED = 'boot_failed'
     HEARTBEAT_LOST = 'heartbeat_lost'

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -20,9 +21,10 @@ import canopen
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
-from drive_bridge.master.boot import BootError, boot_node
+from drive_bridge.master.boot import BootError, boot_node, repeats_identically
 from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
 from drive_bridge.master.events import BusEvent, EventKind, Level
@@ -100,7 +102,8 @@ class Master:
     def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None) -> None:
         event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '')
         self.events = [*self.events[-199:], event]
-        getattr(log, {'info': 'info', 'warn': 'warning', 'error': 'error'}[level.value])(message)
+        if not self._event_listeners:  # a listener reports events itself: print each line once
+            getattr(log, {'info': 'info', 'warn': 'warning', 'error': 'error'}[level.value])(message)
         for listener in self._event_listeners:
             try:
                 listener(event)
@@ -129,6 +132,9 @@ class Master:
                                lambda text: self._emit(EventKind.ERROR, Level.WARN, text))
             self.nodes[node.name] = node
             self._by_id[node.node_id] = node
+            if node_cfg.pdo_summary:
+                self._emit(EventKind.CONFIGURED, Level.INFO,
+                           f'node {node.node_id} ({node.name}): {node_cfg.pdo_summary}', node)
             node.attach_guard()
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
@@ -278,6 +284,20 @@ class Master:
         for axis_cfg in node.config.axes:
             self.axes[axis_cfg.joint].on_node_reset()
 
+    def _settle_axes(self, node: NodeRuntime) -> None:
+        """After a boot: each axis driver that settles its mode from the drive (0x6502) does so
+        and says which (boot thread)."""
+        for axis_cfg in node.config.axes:
+            settle = getattr(self.axes[axis_cfg.joint], 'on_booted', None)
+            if settle is None:
+                continue
+            try:
+                line = settle()
+                if line:
+                    self._emit(EventKind.CONFIGURED, Level.INFO, line, node)
+            except DriveBridgeError as exc:
+                self._emit(EventKind.ERROR, Level.WARN, f'{axis_cfg.joint}: modes not read: {exc}', node)
+
     def _start_boot(self, node: NodeRuntime) -> None:
         node.set_boot_state(BootState.BOOTING)
         thread = threading.Thread(target=self._boot, args=(node,), daemon=True,
@@ -288,6 +308,7 @@ class Master:
     def _boot(self, node: NodeRuntime) -> None:
         attempts = 1 + max(0, node.config.timeouts.boot_retries)
         error = ''
+        previous: BootError | None = None
         for _ in range(attempts):
             if self._stop.is_set():
                 return
@@ -297,11 +318,20 @@ class Master:
             except BootError as exc:
                 error = str(exc)
                 log.info('boot attempt %d failed: %s', node.boot_attempts, error)
+                if repeats_identically(exc, previous):
+                    node.next_boot_time = math.inf
+                    node.set_boot_state(BootState.FAILED, error)
+                    self._emit(EventKind.BOOT_FAILED, Level.ERROR,
+                               f'{error} (the same refusal on {node.boot_attempts} attempts: permanent, not '
+                               'retried; change the configuration)', node)
+                    return
+                previous = exc
                 continue
             except Exception as exc:  # never let a boot thread die silently
                 error = f'node {node.node_id} ({node.name}) boot failed unexpectedly: {exc!r}'
                 continue
             node.bootup_seen.clear()  # the boot's own boot-up; a later one is a real reboot
+            self._settle_axes(node)
             node.set_boot_state(BootState.OPERATIONAL)
             self._emit(EventKind.BOOTED, Level.INFO,
                        f'node {node.node_id} ({node.name}) booted and operational '

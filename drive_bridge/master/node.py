@@ -78,6 +78,8 @@ class NodeRuntime:
             network.subscribe(cob_id, self.process.on_tpdo)
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
+        for key in config.polled:  # inputs no TPDO carries: read by SDO, off the cycle thread
+            self.worker.poll(key)
         # node guarding: polled by the supervisor once the boot configured it
         self.guard = NodeGuard.from_config(config) if self.liveness is Liveness.GUARDING else None
         self.guard_active = False

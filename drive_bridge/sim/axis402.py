@@ -141,6 +141,7 @@ class Axis402:
         self._cache: dict[str, Any] | None = None
         self._stepping = False
         self._step_shift = 0.0
+        self.declared_modes: int | None = None  # modes of a drive without 0x6502 (None: all it implements)
         self.register_objects()
         self.load_boot_values()
 
@@ -281,7 +282,7 @@ class Axis402:
             return True
         if code not in IMPLEMENTED_MODES:
             return False
-        supported = self._values.get(self.key(obj.SUPPORTED_DRIVE_MODES))
+        supported = self._values.get(self.key(obj.SUPPORTED_DRIVE_MODES), self.declared_modes)
         if supported is None:
             return True
         return bool(supported >> SUPPORT_BITS[Mode(code)] & 1)

@@ -35,6 +35,10 @@ class SimDrive402(SimulatedSlave):
             self.AXIS_CLASS(self, slot, {name: self.options[name][slot]
                                          for name, spec in self.OPTIONS.items() if spec.per_axis})
             for slot in range(count))
+        self.on_axes_created()
+
+    def on_axes_created(self) -> None:
+        """Hook: the axes exist (e.g. settle what the EDS leaves open). Default: nothing."""
 
     @staticmethod
     def _axis_count(node: NodeConfig) -> int:

@@ -247,8 +247,10 @@ class PdoEngine:
 
     def mapping_locked(self, pdo: Pdo, cob: int) -> bool:
         """Hook: whether the PDO's COB-ID, mapping, inhibit time and SYNC start value are locked
-        against changes (CiA 301: while the PDO is valid, ``cob`` its 0x14xx/0x18xx:1)."""
-        return not cob & COB_INVALID
+        against changes (CiA 301: while the PDO is valid, ``cob`` its 0x14xx/0x18xx:1). A PDO
+        whose EDS makes the COB-ID read-only cannot be made invalid: its mapping stays open."""
+        var = self._store.variables.get(key(pdo.comm, 1))
+        return not cob & COB_INVALID and var is not None and var.writable
 
     def check_entry(self, pdo: Pdo, entry: int) -> ODVariable:
         """The mapped variable of mapping ``entry`` for ``pdo``, or the CiA 301 abort (for device

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from drive_bridge.sim.drive402 import SimDrive402
+from drive_bridge.sim.eds402 import EdsDrive402
 from drive_bridge.sim.slave import SimulatedSlave
 
 _SIMULATORS: dict[str, type[SimulatedSlave]] = {}
@@ -31,5 +31,5 @@ def simulated_families() -> list[str]:
     return sorted(_SIMULATORS)
 
 
-register_simulator('generic_402')(SimDrive402)
+register_simulator('generic_402')(EdsDrive402)
 register_simulator('generic_301')(SimulatedSlave)

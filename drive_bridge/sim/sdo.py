@@ -24,6 +24,7 @@ ABORT_WRITE_ONLY = 0x06010001
 ABORT_READ_ONLY = 0x06010002
 ABORT_LENGTH = 0x06070010
 ABORT_TOO_HIGH = 0x06090031
+CONSUMER_HEARTBEAT = 0x1016
 ABORT_TOO_LOW = 0x06090032
 
 Reader = Callable[[int, int, bool], bytes]
@@ -85,7 +86,8 @@ def decode_checked(store: ObjectStore, index: int, subindex: int, data: bytes, c
     if var.data_type in dt.NUMBER_TYPES and 8 * len(data) != len(var):
         raise SdoAbortedError(ABORT_LENGTH)
     value = store.decode(var, data)
-    if var.data_type in dt.NUMBER_TYPES:
+    # 0x1016 entries follow CiA 301's layout (producer id in bits 16-23), whatever limit a file gives
+    if var.data_type in dt.NUMBER_TYPES and not (index == CONSUMER_HEARTBEAT and subindex >= 1):
         if var.max is not None and value > var.max:
             raise SdoAbortedError(ABORT_TOO_HIGH)
         if var.min is not None and value < var.min:

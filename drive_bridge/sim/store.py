@@ -119,8 +119,10 @@ class ObjectStore:
 
     @staticmethod
     def encode(var: ODVariable, value: Any) -> bytes:
-        if var.data_type in dt.INTEGER_TYPES:
-            value = int(value)
+        if var.data_type in dt.INTEGER_TYPES and var.data_type in var.STRUCT_TYPES:
+            # packed directly: canopen would warn on every read of a value outside a file's
+            # limits (some files give INTEGER8 limits as 0xFF, read as -1)
+            return bytes(var.STRUCT_TYPES[var.data_type].pack(int(value)))
         return var.encode_raw(value)
 
     @staticmethod

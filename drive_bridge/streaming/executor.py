@@ -87,13 +87,13 @@ class TrajectoryExecutor:
             if snapshot.drive_state is not DriveState.ENABLED:
                 raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state_label}, not operation '
                                       'enabled; enable it first')
-            if axis.stream_strategy() is None:
-                raise TrajectoryError(f'{source}: joint {joint} is in mode {snapshot.mode_name}, which takes '
-                                      'no trajectory; set a streaming mode first (csp, csv or ip; set_mode)')
-            try:
+            try:  # first: the driver's own reason (e.g. a mode the drive lacks)
                 axis.check_trajectory(*fields)
             except JointError as exc:
                 raise TrajectoryError(f'{source}: {exc}') from None
+            if axis.stream_strategy() is None:
+                raise TrajectoryError(f'{source}: joint {joint} is in mode {snapshot.mode_name}, which takes '
+                                      'no trajectory; set a streaming mode first (csp, csv or ip; set_mode)')
 
     def desired(self, joint: str, t: float) -> JointSample | None:
         """The desired state of a joint at time t, None when no trajectory ever ran."""

@@ -1,12 +1,17 @@
-"""Any drive that follows CiA 402 with free PDO mapping (the default family)."""
+"""Any drive that follows CiA 402 (the default family): its default process data is fitted
+to the drive's EDS (:mod:`.pdomap`), and an axis that names no mode gets the best streaming
+mode the drive's 0x6502 has (:mod:`.modes`)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
 
+from canopen import ObjectDictionary
+
 from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia402 import objects as obj
-from drive_bridge.families.interface import DATA_DIR, DriveFamily
+from drive_bridge.families.generic402.pdomap import plan
+from drive_bridge.families.interface import DATA_DIR, DriveFamily, PdoPlan
 from drive_bridge.families.registry import register_family
 from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 
@@ -20,8 +25,9 @@ def _entries(slot: int, *objects: tuple[int, int]) -> tuple[PdoEntry, ...]:
 
 @register_family
 class Generic402(DriveFamily):
-    """Two RPDOs and two TPDOs per axis carry everything every standard mode needs, so
-    modes can change on the fly without remapping:
+    """The standard map, used where the EDS takes it: two RPDOs and two TPDOs per axis
+    carry everything every standard mode needs, so modes can change on the fly without
+    remapping:
 
     - RPDO 2k+1: controlword, modes of operation, target torque (40 bits)
     - RPDO 2k+2: target position, target velocity (64 bits)
@@ -33,9 +39,15 @@ class Generic402(DriveFamily):
     """
 
     name = 'generic_402'
-    description = 'CiA 402 drive with free PDO mapping'
+    description = 'CiA 402 drive (default PDO map fitted to its EDS)'
     default_eds = DATA_DIR / 'generic402.eds'
     max_axes = 2  # the predefined connection set has four PDOs each way
+    modes_from_drive = True
+
+    def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                  od: ObjectDictionary) -> PdoPlan:
+        """The standard map below where the EDS takes it, else one fitted to the EDS."""
+        return plan(od, node_id, axes, synchronous, lambda: self.default_pdos(node_id, axes, synchronous))
 
     def eds_for(self, axis_count: int) -> Path | None:
         return DATA_DIR / 'generic402_2axis.eds' if axis_count == 2 else self.default_eds
