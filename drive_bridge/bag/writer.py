@@ -171,6 +171,11 @@ class BagWriter:
         self.write(FRAMES_TOPIC, FRAME_TYPE, stamp, cdr)
         self.frames += 1
 
+    def flush(self) -> None:
+        """Write the pending chunk to disk: a killed recorder loses only what came after."""
+        if self._mcap is not None:
+            self._mcap.flush()
+
     def close(self) -> None:
         """Close the current split and write the final metadata.yaml (idempotent)."""
         if self.closed:
