@@ -77,9 +77,11 @@ def test_bag_of_a_trajectory_and_a_fault_has_every_frame_and_the_decoded_topics(
         counts: dict[str, int] = {}
         for c in reader.connections:
             counts[c.topic] = counts.get(c.topic, 0) + c.msgcount
+        def topic(name: str) -> list:
+            return [c for c in reader.connections if c.topic == name]
         emcy_codes = [reader.deserialize(raw, c.msgtype).error_code
-                      for c, _, raw in reader.messages([c for c in reader.connections if c.topic.endswith('/emcy')])]
-        statuses = {s.name for c, _, raw in reader.messages([c for c in reader.connections if c.topic == '/diagnostics'])
+                      for c, _, raw in reader.messages(topic(f'{NS}/emcy'))]
+        statuses = {s.name for c, _, raw in reader.messages(topic('/diagnostics'))
                     for s in reader.deserialize(raw, c.msgtype).status}
     assert types == EXPECTED_TYPES
     assert counts['/can/frames'] == traffic.rx_frames + traffic.tx_frames > 1000
