@@ -223,6 +223,7 @@ def ros_sync_cycles(way: str, seconds: float, directory: Path) -> SyncRow:
     import rclpy
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.logging import LoggingSeverity
     from rclpy.parameter import Parameter
 
     from drive_bridge.ros.node import BusNode
@@ -235,6 +236,7 @@ def ros_sync_cycles(way: str, seconds: float, directory: Path) -> SyncRow:
     params = [Parameter('config_yaml', value=yaml.safe_dump(data)), Parameter('sync_period', value=0.004),
               Parameter('record.path', value=str(directory)), Parameter('record.start', value=way == 'record')]
     node = BusNode(context=context, parameter_overrides=params, node_name=f'bench_{way}')
+    node.get_logger().set_level(LoggingSeverity.WARN)
     executor.add_node(node)
     spinning = threading.Event()
 
@@ -268,6 +270,20 @@ def ros_sync_cycles(way: str, seconds: float, directory: Path) -> SyncRow:
             subscriber.terminate()
             subscriber.wait(10)
     return SyncRow(way, cycles, skipped, stats.frames if stats else 0, stats.dropped if stats else 0)
+
+
+def interleaved(ways: tuple[str, ...], repeat: int, run: Callable[[str, int], SyncRow]) -> list[SyncRow]:
+    """Each way once per round, rounds repeated: a machine whose load drifts affects every way alike."""
+    rows: dict[str, list[SyncRow]] = {way: [] for way in ways}
+    for i in range(max(1, repeat)):
+        for way in ways:
+            rows[way].append(run(way, i))
+    result = []
+    for way in ways:
+        row = median(rows[way], SyncRow)
+        assert isinstance(row, SyncRow)
+        result.append(row)
+    return result
 
 
 def median(rows: list, make: Callable[..., object]) -> object:
@@ -308,21 +324,16 @@ def main(argv: list[str] | None = None) -> None:
         print()
         print(f'SYNC at 4 ms, demo bus (4 simulated axes), {options.sync_seconds:g} s per run')
         print(f'{"way":<10}{"cycles":>8}{"skipped":>9}{"skipped %":>11}{"frames":>9}{"dropped":>9}')
-        for way in ('none', 'recorder', 'naive'):
-            rows = [sync_cycles(way, options.sync_seconds, directory / f'{way}{i}')
-                    for i in range(max(1, options.repeat))]
-            sync = median(rows, SyncRow)
-            assert isinstance(sync, SyncRow)
+        for sync in interleaved(('none', 'recorder', 'naive'), options.repeat,
+                                lambda way, i: sync_cycles(way, options.sync_seconds, directory / f'{way}{i}')):
             print_sync(sync)
         if options.ros:
             print()
             print(f'SYNC at 4 ms through the ROS bus node (demo bus), {options.sync_seconds:g} s per run')
             print(f'{"way":<12}{"cycles":>6}{"skipped":>9}{"skipped %":>11}{"frames":>9}{"dropped":>9}')
-            for way in ('none', 'record', 'can_frames'):
-                rows = [ros_sync_cycles(way, options.sync_seconds, directory / f'ros-{way}{i}')
-                        for i in range(max(1, options.repeat))]
-                sync = median(rows, SyncRow)
-                assert isinstance(sync, SyncRow)
+            for sync in interleaved(('none', 'record', 'can_frames'), options.repeat,
+                                    lambda way, i: ros_sync_cycles(way, options.sync_seconds,
+                                                                   directory / f'ros-{way}{i}')):
                 print_sync(sync, 12)
 
 
