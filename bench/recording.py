@@ -16,6 +16,8 @@
    master (a cycle whose deadline has passed is skipped). Then the same through the ROS bus node:
    no recording, recording (``record.start``), and one subscriber on ``~/can_frames`` in another
    process (recording through that topic).
+3. Import: ``drive-bridge import`` of the largest real trace (../shared/realdata/traces/pcan3.trc)
+   against python-can's reader feeding a rosbags Writer with typestore serialization.
 
     .venv/bin/python -m bench recording [--rate 20000] [--seconds 5] [--sync-seconds 10] [--repeat 1]
 """
@@ -271,6 +273,29 @@ def ros_sync_cycles(way: str, seconds: float, directory: Path) -> SyncRow:
     return SyncRow(way, cycles, skipped, stats.frames if stats else 0, stats.dropped if stats else 0)
 
 
+TRACE = next((p / 'shared' / 'realdata' / 'traces' / 'pcan3.trc' for p in Path(__file__).resolve().parents
+              if (p / 'shared' / 'realdata').is_dir()), Path('pcan3.trc'))
+
+
+def import_rates(directory: Path, repeat: int) -> tuple[float, float, int]:
+    """frames/s of ``drive-bridge import`` of the largest real trace, and of the naive way
+    (python-can's reader, one typestore message and serialization per frame, a rosbags Writer)."""
+    from drive_bridge.bag.importer import import_trace
+    ours, naive = [], []
+    frames = 0
+    for i in range(max(1, repeat)):
+        t0 = time.perf_counter()
+        frames = import_trace(TRACE, directory / f'import{i}', progress=False).frames
+        ours.append(frames / (time.perf_counter() - t0))
+        t0 = time.perf_counter()
+        writer = NaiveWriter(directory / f'naive-import{i}')
+        for msg in can.LogReader(TRACE):
+            writer.on_frame(msg)
+        writer.stop()
+        naive.append(frames / (time.perf_counter() - t0))
+    return statistics.median(ours), statistics.median(naive), frames
+
+
 def interleaved(ways: tuple[str, ...], repeat: int, run: Callable[[str, int], SyncRow]) -> list[SyncRow]:
     """Each way once per round, rounds repeated: a machine whose load drifts affects every way alike."""
     rows: dict[str, list[SyncRow]] = {way: [] for way in ways}
@@ -326,6 +351,11 @@ def main(argv: list[str] | None = None) -> None:
         for sync in interleaved(('none', 'recorder', 'naive'), options.repeat,
                                 lambda way, i: sync_cycles(way, options.sync_seconds, directory / f'{way}{i}')):
             print_sync(sync)
+        if TRACE.exists():
+            ours_rate, naive_rate, frames = import_rates(directory, options.repeat)
+            print()
+            print(f'Import of {TRACE.name} ({frames} frames): drive-bridge import {ours_rate:,.0f} frames/s, '
+                  f'naive (typestore + rosbags Writer) {naive_rate:,.0f} frames/s: {ours_rate / naive_rate:.1f}x')
         if options.ros:
             print()
             print(f'SYNC at 4 ms through the ROS bus node (demo bus), {options.sync_seconds:g} s per run')
