@@ -18,7 +18,7 @@ from drive_bridge.model import BusConfig
 from drive_bridge.ros.command_topics import CommandTopics
 from drive_bridge.ros.param_services import ParameterServices
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare
-from drive_bridge.ros.recording import Recording
+from drive_bridge.ros.recording import RecordControl
 from drive_bridge.ros.services import BridgeServices
 from drive_bridge.ros.state_topics import StateTopics
 from drive_bridge.ros.trajectory_action import TrajectoryAction
@@ -74,7 +74,7 @@ class Bridge:
         self.master = Master(config)
         self.master.add_event_listener(self._log_event)
         try:  # before the bus opens: record.start records from the first frame
-            self.recording = Recording(node, self.master, config, config_text(params, config))
+            self.recording = RecordControl(node, self.master, config, config_text(params, config))
         except BagError as exc:
             if self.simulation is not None:
                 self.simulation.stop()

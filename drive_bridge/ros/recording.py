@@ -83,7 +83,7 @@ def stamp_ns(msg: Any) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
-class Recording:
+class RecordControl:
     """Starts and stops the recorder of one bus node."""
 
     def __init__(self, node: Node, master: Master, config: BusConfig, config_text: str | None) -> None:
