@@ -67,6 +67,8 @@ def test_bag_of_a_trajectory_and_a_fault_has_every_frame_and_the_decoded_topics(
     run_trajectory(ros, node)
     node.simulation.drive(2).inject_fault(0x2310)
     wait_for(lambda: node.master.axes['base_joint'].snapshot().fault, 3, 'fault')
+    node.simulation.drive(4).restart()  # the lift drive reboots by itself
+    wait_for(lambda: any(e.kind.value == 'unexpected_boot' for e in node.master.events), 5, 'reboot noticed')
     time.sleep(0.5)  # a /diagnostics with the recording status, an axis state with the fault
     node.close()
     traffic = node.master.traffic.traffic()
@@ -85,12 +87,14 @@ def test_bag_of_a_trajectory_and_a_fault_has_every_frame_and_the_decoded_topics(
                       for c, _, raw in reader.messages(topic(f'{NS}/emcy'))]
         statuses = {s.name for c, _, raw in reader.messages(topic('/diagnostics'))
                     for s in reader.deserialize(raw, c.msgtype).status}
+        events = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(topic(f'{NS}/events'))]
     assert types == EXPECTED_TYPES
     assert counts['/can/frames'] == traffic.rx_frames + traffic.tx_frames > 1000
     assert counts['/joint_states'] > 200  # 4 ms cycles over > 1 s of motion
     assert counts['/bag/config'] == counts['/bag/files'] / len({n.eds_path for n in node.master.config.nodes}) \
         == len(splits)
     assert 0x2310 in emcy_codes
+    assert {(e.function, e.line) for e in events} >= {('booted', 2), ('booted', 4), ('unexpected_boot', 4)}
     assert 'drive_bridge: recording' in statuses and 'drive_bridge: axis base_joint' in statuses
 
     mcap_frames = 0
