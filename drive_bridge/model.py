@@ -322,6 +322,13 @@ class AccessConfig:
     param_read: NodeRule = NodeRule(configured=True)
     param_write: NodeRule = NodeRule(configured=True)
     param_save: NodeRule = NodeRule()
+class RecordConfig:
+    """Recording the bus into a rosbag2 MCAP bag (the node's ``record.*`` parameters start from here)."""
+
+    path: str = 'bags'  # directory of the bags; each recording is a new bag <channel>_<UTC time> in it
+    split_size_mb: float = 0.0  # rotate to a new split at this size (0 = no size limit)
+    split_seconds: float = 0.0  # rotate to a new split after this long (0 = no time limit)
+    start: bool = False  # start recording when the node starts (before the bus opens)
 
 
 @dataclass(frozen=True)
@@ -333,6 +340,7 @@ class BusConfig:
     nodes: tuple[NodeConfig, ...] = ()
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
     access: AccessConfig = field(default_factory=AccessConfig)
+    record: RecordConfig = field(default_factory=RecordConfig)
     path: Path | None = None
     warnings: tuple[str, ...] = ()  # accepted but ignored keys (e.g. ros2_canopen ones), each located
 
