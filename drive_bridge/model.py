@@ -322,6 +322,9 @@ class AccessConfig:
     param_read: NodeRule = NodeRule(configured=True)
     param_write: NodeRule = NodeRule(configured=True)
     param_save: NodeRule = NodeRule()
+
+
+@dataclass(frozen=True)
 class RecordConfig:
     """Recording the bus into a rosbag2 MCAP bag (the node's ``record.*`` parameters start from here)."""
 
