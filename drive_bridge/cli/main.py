@@ -17,6 +17,8 @@ from drive_bridge.errors import DriveBridgeError
 # (verb, module under drive_bridge.cli, one-line help): the help is here so that listing the
 # verbs imports nothing.
 COMMANDS: tuple[tuple[str, str, str], ...] = (
+    ('replay', 'replay', 'replay a bag or trace onto a CAN bus, or offline through the decoders into a bag'),
+    ('scan', 'scan', 'find the nodes on a live bus and write a starter bus config'),
 )
 
 PROG = 'drive-bridge'
