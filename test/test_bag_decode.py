@@ -132,6 +132,7 @@ def test_decoded_joint_states_match_the_live_ones_per_stamp(recorded, decoded) -
             all(abs(a - b) <= POSITION_TOLERANCE for a, b in zip(other.velocity, msg.velocity))
         mismatched += not same
         moved = max(moved, abs(msg.velocity[0]))
+    print(f'joint states: {matched} of {len(in_range)} live stamps decoded, {mismatched} differ')
     assert moved > 0.1, 'the trajectory did not move base_joint'
     # a live cycle may read a joint's position while its next TPDO is being stored: rare
     assert matched >= 0.8 * len(in_range), f'{matched} of {len(in_range)} live stamps decoded'
@@ -164,6 +165,7 @@ def test_decoded_axis_states_match_the_live_ones(recorded, decoded) -> None:
             compared += 1
             differ += (axis.state, axis.drive_state, axis.statusword, axis.mode) not in window
             states_seen.add((axis.joint_name, axis.state))
+    print(f'axis states: {compared} live axis states compared, {differ} not in the decoded timeline')
     assert compared > 20
     assert ('lift_joint', State.OPERATION_ENABLED) in states_seen
     assert any(j == 'lift_joint' and s != State.OPERATION_ENABLED for j, s in states_seen)
@@ -208,3 +210,29 @@ def test_decode_errors_name_what_is_wrong(recorded, tmp_path, capsys) -> None:
     assert '--config' in capsys.readouterr().err
     assert main(['replay', str(tmp_path / 'missing.mcap'), '--decode', '-o', str(tmp_path / 'o')]) == 2
     assert 'missing.mcap' in capsys.readouterr().err
+
+
+def test_a_trace_decodes_with_a_config_and_one_that_does_not_fit_is_refused(recorded, decoded, tmp_path,
+                                                                             capsys) -> None:
+    from drive_bridge.bag.source import open_recording
+    bag = recorded[0]
+    trace = tmp_path / 'bus.log'
+    with can.Logger(trace) as log:  # candump log: microsecond stamps, no stored config
+        for msg in open_recording(bag).frames():
+            log(msg)
+    data = yaml.safe_load(open_recording(bag).config_yaml)
+    config = tmp_path / 'bus.yaml'
+    config.write_text(yaml.safe_dump(data, sort_keys=False))
+    out = tmp_path / 'out'
+    assert main(['replay', str(trace), '--decode', '--config', str(config), '-o', str(out), '--quiet']) == 0
+    from_trace = [m for _, m in read_topics(out)['/joint_states']]
+    from_bag = [m for _, m in read_topics(decoded[0])['/joint_states']]
+    assert len(from_trace) == len(from_bag)
+    differ = [(list(a.name), list(a.position), list(b.name), list(b.position))
+              for a, b in zip(from_trace, from_bag) if list(a.position) != list(b.position)]
+    assert not differ, differ[:3]
+    capsys.readouterr()
+    data['nodes'] = {'other_drive': {'node_id': 9, 'axes': [{'joint': 'j9'}]}}
+    config.write_text(yaml.safe_dump(data, sort_keys=False))
+    assert main(['replay', str(trace), '--decode', '--config', str(config), '-o', str(tmp_path / 'o2')]) == 2
+    assert 'does not match the recording' in capsys.readouterr().err

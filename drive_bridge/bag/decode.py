@@ -194,6 +194,7 @@ class OfflineBus:
         self._joint_of = {n.node_id: {a.slot: a.joint for a in n.axes} for n in config.nodes}
         self._last_states: tuple[object, ...] = ()
         self.frames = 0
+        self.node_frames = 0  # frames of the configured nodes (PDO, EMCY, heartbeat)
 
     # dispatch ---------------------------------------------------------------------------
     def feed(self, msg: can.Message) -> list[Decoded]:
@@ -205,17 +206,25 @@ class OfflineBus:
         out: list[Decoded] = list(self._check_liveness(msg.timestamp))
         handler = self._by_cob.get(cob_id)
         if handler is not None and not msg.is_remote_frame:
+            self.node_frames += 1
             out.extend(handler(msg))
         elif cob_id == SYNC_COB_ID:
             out.extend(self._cycle(msg.timestamp))
         elif cob_id == NMT_COB_ID and len(msg.data) >= 2:
             out.extend(self._on_nmt_command(msg))
         elif EMCY_BASE < cob_id < EMCY_BASE + 0x80 and cob_id - EMCY_BASE in self.nodes:
+            self.node_frames += 1
             out.extend(self._on_emcy(self.nodes[cob_id - EMCY_BASE], msg))
         elif HEARTBEAT_BASE < cob_id < HEARTBEAT_BASE + 0x80 and cob_id - HEARTBEAT_BASE in self.nodes \
                 and not msg.is_remote_frame and len(msg.data) >= 1:
+            self.node_frames += 1
             out.extend(self._on_heartbeat(self.nodes[cob_id - HEARTBEAT_BASE], msg))
         return out
+
+    def problems(self) -> list[str]:
+        """What did not fit the config: PDOs shorter than their mapping."""
+        return [f'node {n.node_id} ({n.name}): {n.process.rx_errors} TPDO(s) shorter than the config maps, '
+                f'last: {n.process.last_rx_error}' for n in self.nodes.values() if n.process.rx_errors]
 
     def decode(self, frames: Iterable[can.Message]) -> Iterator[Decoded]:
         for msg in frames:

@@ -50,10 +50,12 @@ def recording_config(recording: Recording, config_path: Path | None) -> BusConfi
 class DecodeStats:
     frames: int = 0
     messages: dict[str, int] = field(default_factory=dict)  # topic -> count
+    problems: list[str] = field(default_factory=list)  # where the recording does not fit the config
 
     def lines(self) -> list[str]:
-        return [f'frames decoded {self.frames}'] + [f'{topic:30s} {count}' for topic, count in
-                                                    sorted(self.messages.items())]
+        return ([f'frames decoded {self.frames}'] + [f'{topic:30s} {count}' for topic, count in
+                                                     sorted(self.messages.items())]
+                + [f'warning: {problem}' for problem in self.problems])
 
 
 def decode_into(frames: Iterable[can.Message], config: BusConfig, writer: BagWriter,
@@ -69,4 +71,9 @@ def decode_into(frames: Iterable[can.Message], config: BusConfig, writer: BagWri
         stats.frames += 1
         if on_frame is not None:
             on_frame()
+    if stats.frames and not bus.node_frames:
+        ids = ', '.join(str(n) for n in bus.nodes) or 'none'
+        raise BagError(f'none of the {stats.frames} frames is a PDO, EMCY or heartbeat of the configured '
+                       f'nodes (ids {ids}): the config does not match the recording')
+    stats.problems = bus.problems()
     return stats

@@ -16,6 +16,7 @@ import numpy as np
 from drive_bridge.bag.errors import BagError
 
 SPIN = 0.0015  # s before a frame's time: sleep up to here, then spin (sleep overshoots ~0.1-1 ms)
+SEND_TIMEOUT = 0.05  # s a real interface may block on a full transmit queue before a frame counts as lost
 NMT_COB_ID = 0x000
 SYNC_COB_ID = 0x080
 TIME_COB_ID = 0x100
@@ -109,7 +110,7 @@ def replay_onto(frames: Iterable[can.Message], bus: can.BusABC, *, speed: float 
         deadline = start + (msg.timestamp - first) / speed
         wait_until(deadline)
         try:
-            bus.send(outgoing(msg))
+            bus.send(outgoing(msg), timeout=SEND_TIMEOUT)
         except can.CanError:
             errors += 1
         now = time.perf_counter()
