@@ -193,6 +193,12 @@ class OfflineBus:
                 self._by_cob[cob_id] = self._rpdo_handler(node)
         self._joint_of = {n.node_id: {a.slot: a.joint for a in n.axes} for n in config.nodes}
         self._last_states: tuple[object, ...] = ()
+        self._last_inputs: tuple[object, ...] = ()
+        # per node, the received objects an axis state can depend on: all but the motion values
+        self._state_keys = {node_id: self._non_motion_keys(node) for node_id, node in self.nodes.items()}
+        self._command_keys = {node_id: tuple((obj.for_axis(index, a.slot), 0) for a in node.config.axes
+                                             for index in (obj.CONTROLWORD, obj.MODES_OF_OPERATION))
+                              for node_id, node in self.nodes.items()}
         self.frames = 0
         self.node_frames = 0  # frames of the configured nodes (PDO, EMCY, heartbeat)
 
@@ -249,6 +255,10 @@ class OfflineBus:
         joints = self.joint_sample()
         if joints is not None:
             out.append(joints)
+        inputs = self._state_inputs()
+        if inputs == self._last_inputs:
+            return out  # nothing but motion values changed: the axis states did not
+        self._last_inputs = inputs
         snapshots = tuple(self.snapshot(joint) for joint in self.axes)
         key = tuple((s.available, s.drive_state, s.statusword, s.mode, s.controlword, s.fault, s.halted)
                     for s in snapshots)
@@ -256,6 +266,22 @@ class OfflineBus:
             self._last_states = key
             out.append(AxisStatesSample(timestamp, snapshots))
         return out
+
+    @staticmethod
+    def _non_motion_keys(node: OfflineNode) -> tuple[ObjectKey, ...]:
+        motion = set()
+        for axis in node.config.axes:
+            objects = node.family.axis_objects(axis.slot)
+            motion |= {objects.position_actual, objects.velocity_actual, objects.effort_actual}
+        return tuple(f.key for layout in node.process.rx_layouts.values() for f in layout.fields
+                     if f.key not in motion)
+
+    def _state_inputs(self) -> tuple[object, ...]:
+        """Everything an axis snapshot's published state can change with, cheaply."""
+        return tuple((node.available, node.state, len(node.emcy_history()),
+                      tuple(node.process.inputs.get(k) for k in self._state_keys[node_id]),
+                      tuple(node.outputs.get(k) for k in self._command_keys[node_id]))
+                     for node_id, node in self.nodes.items())
 
     def joint_sample(self) -> JointSample | None:
         """The available joints now, as ``/joint_states`` carries them (None: none available)."""
