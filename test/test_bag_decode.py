@@ -236,3 +236,4 @@ def test_a_trace_decodes_with_a_config_and_one_that_does_not_fit_is_refused(reco
     config.write_text(yaml.safe_dump(data, sort_keys=False))
     assert main(['replay', str(trace), '--decode', '--config', str(config), '-o', str(tmp_path / 'o2')]) == 2
     assert 'does not match the recording' in capsys.readouterr().err
+    assert not (tmp_path / 'o2').exists()

@@ -3,6 +3,7 @@ the bridge's decoders into a bag of decoded topics."""
 from __future__ import annotations
 
 import argparse
+import shutil
 from pathlib import Path
 
 import can
@@ -76,7 +77,10 @@ def _decode(args: argparse.Namespace, recording: Recording) -> int:
         with tqdm(unit=' frames', disable=args.quiet, desc='decode') as bar:
             stats = decode_into(recording.frames(), config, writer, Topics(args.namespace.rstrip('/')),
                                 on_frame=bar.update)
-    finally:
+    except BaseException:
         writer.close()
+        shutil.rmtree(args.output, ignore_errors=True)  # no half-decoded bag left behind
+        raise
+    writer.close()
     print('\n'.join([f'{args.output}:', *stats.lines()]))
     return 0
