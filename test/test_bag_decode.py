@@ -1,14 +1,14 @@
 """Offline replay through the bridge's decoders reproduces what the bridge published live.
 
 The bridge runs the demo bus against its simulated drives while a trajectory moves two
-joints; every frame of its tap is written to a rosbag2 bag (with the bus config), and a
-subscriber captures /joint_states and ~/axis_states. ``drive-bridge replay --decode``
+joints, a fault is injected and a heartbeat stops; the bridge's recorder writes every frame
+of its tap to a rosbag2 bag (with the bus config), and a subscriber captures /joint_states,
+~/axis_states and ~/emcy. ``drive-bridge replay --decode``
 then turns the raw-frame bag into decoded topics, compared per stamp with the live ones.
 """
 from __future__ import annotations
 
 import bisect
-import threading
 import time
 from pathlib import Path
 
@@ -24,11 +24,10 @@ from trajectory_msgs.msg import JointTrajectory
 
 from bustools import demo_data
 from drive_bridge.bag.typestore import typestore
-from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.cli.main import main
 from drive_bridge.ros.node import BusNode
-from rostools import wait_for
+from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
 STAMP_TOLERANCE_NS = 2_000  # float seconds -> ns rounding of frame and message stamps
@@ -50,25 +49,19 @@ def read_topics(bag: Path) -> dict[str, list]:
 
 @pytest.fixture(scope='module')
 def recorded(tmp_path_factory):
-    """(raw-frame bag, live joint states, live axis states) of a trajectory run."""
-    from rostools import RosHarness as Harness
-    ros = Harness()
-    data = demo_data()
-    frames: list[can.Message] = []
-    lock = threading.Lock()
+    """(raw-frame bag recorded by the bridge, live joint states, live axis states, live EMCYs)
+    of a trajectory run with a fault and a heartbeat loss."""
+    ros = RosHarness()
+    bags = tmp_path_factory.mktemp('decode')
     live_joints: list[JointState] = []
     live_axes: list[AxisStates] = []
     live_emcy: list[Emcy] = []
     try:
         node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)),
-            Parameter('auto_enable', value=True)])
+            Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
+            Parameter('auto_enable', value=True),
+            Parameter('record.path', value=str(bags)), Parameter('record.start', value=True)])
         ros.add(node)
-
-        def tap(msg: can.Message) -> None:
-            with lock:
-                frames.append(msg)
-        node.master.add_frame_listener(tap)
         node.master.wait_until_operational(10.0)
         wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
         listener = ros.node('live_listener')
@@ -89,15 +82,11 @@ def recorded(tmp_path_factory):
         time.sleep(0.6)
         lift.start_heartbeat()
         time.sleep(0.4)
-        node.master.tap.remove_listener(tap)
         node.close()
     finally:
         ros.shutdown()
-    bag = tmp_path_factory.mktemp('decode') / 'raw'
-    with lock, BagWriter(bag, config_yaml=yaml.safe_dump(data, sort_keys=False)) as writer:
-        for msg in frames:
-            writer.write_frame(msg, str(data['bus']['channel']))
     assert live_emcy, 'the injected fault sent no EMCY'
+    bag, = bags.iterdir()
     return bag, list(live_joints), list(live_axes), list(live_emcy)
 
 
@@ -192,9 +181,9 @@ def test_decoded_emcy_and_bus_events(recorded, decoded) -> None:
     assert [(m.node_id, m.error_code, m.text, m.joint_name, ns(m.header.stamp) // 1000) for m in offline] == \
         [(m.node_id, m.error_code, m.text, m.joint_name, ns(m.header.stamp) // 1000) for m in live_emcy]
     assert offline[0].error_code == 0x2310 and offline[0].joint_name == 'lift_joint'
-    events = [(m.function, m.line) for _, m in topics[f'{NS}/bus_events']]
+    events = [(m.function, m.line) for _, m in topics[f'{NS}/events']]
     assert ('heartbeat_lost', 4) in events and ('heartbeat_back', 4) in events
-    lost = next(s for s, m in topics[f'{NS}/bus_events'] if m.function == 'heartbeat_lost')
+    lost = next(s for s, m in topics[f'{NS}/events'] if m.function == 'heartbeat_lost')
     after = [m for s, m in topics['/joint_states'] if lost < s < lost + 100_000_000]
     assert after and all('lift_joint' not in m.name for m in after)
 

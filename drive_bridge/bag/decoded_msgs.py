@@ -40,7 +40,7 @@ class Topics:
 
     @property
     def bus_events(self) -> str:
-        return f'{self.namespace}/bus_events'
+        return f'{self.namespace}/events'  # as the bridge's recorder writes its bus events
 
 
 def ns(seconds: float) -> int:
@@ -89,7 +89,7 @@ def to_message(sample: Decoded, topics: Topics) -> tuple[str, str, int, Any]:
         return topics.emcy, EMCY, ns(e.timestamp), msg
     assert isinstance(sample, BusNotice)
     msg = types[LOG](stamp=_time(sample.timestamp), level=LOG_LEVEL[sample.level],
-                     name=f'drive_bridge.{sample.node_name or "bus"}', msg=sample.message, file='',
+                     name=sample.node_name or 'bus', msg=sample.message, file='',
                      function=sample.kind, line=sample.node_id)
     return topics.bus_events, LOG, ns(sample.timestamp), msg
 
