@@ -85,6 +85,9 @@ def test_replay_keeps_the_inter_frame_timing(bag, capsys) -> None:
 
 
 def test_node_and_direction_filters_and_speed(bag, capsys) -> None:
+    both = replay([str(bag), '--node', '2', '3', '--direction', 'tx', '--speed', '4'], unique_channel('replay'))
+    assert {m.arbitration_id for m in both} == {0x202, 0x203}  # SYNC is no node's frame
+    capsys.readouterr()
     original = [m for m in recorded_frames() if m.is_rx and m.arbitration_id & 0x7F == 3]
     received = replay([str(bag), '--node', '3', '--direction', 'rx', '--speed', '2'], unique_channel('replay'))
     assert [m.arbitration_id for m in received] == [m.arbitration_id for m in original]

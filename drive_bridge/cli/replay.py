@@ -26,8 +26,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     bus.add_argument('--interface', default='virtual', help='python-can interface (default: virtual)')
     bus.add_argument('--channel', help='python-can channel')
     bus.add_argument('--bitrate', type=int, help='bit/s, for interfaces that set it')
-    bus.add_argument('--node', type=int, action='append', default=[], metavar='N',
-                     help="only frames from/to node N (repeatable; NMT commands to it, not SYNC)")
+    bus.add_argument('--node', type=int, nargs='+', action='extend', default=[], metavar='N',
+                     help='only frames from/to these nodes (--node 2 3 or --node 2 --node 3; their PDOs, SDOs, '
+                          'EMCY, heartbeat, NMT commands to them; not SYNC)')
     bus.add_argument('--direction', choices=('rx', 'tx'),
                      help='rx: frames the recording master received (the nodes); tx: frames it sent')
     bus.add_argument('--speed', type=float, default=1.0, help='time factor (2: twice as fast)')
