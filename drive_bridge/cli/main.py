@@ -21,6 +21,8 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ('import', 'importer', 'convert a CAN trace (trc, asc, blf, candump, csv, IXXAT MiniMon...) to a bag'),
     ('recover', 'recover', 'make a bag whose recorder was killed readable'),
     ('info', 'info', 'topics, types, counts, duration and stored files of a bag or trace'),
+    ('replay', 'replay', 'replay a bag or trace onto a CAN bus, or offline through the decoders into a bag'),
+    ('scan', 'scan', 'find the nodes on a live bus and write a starter bus config'),
 )
 
 PROG = 'drive-bridge'

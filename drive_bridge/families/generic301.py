@@ -1,8 +1,9 @@
 """A CiA 301 node without CiA 402 (I/O modules, proxies): booted, monitored, SDO/PDO only."""
 from __future__ import annotations
 
-from drive_bridge.families.interface import DriveFamily
+from drive_bridge.families.interface import DriveFamily, IdentityMatch
 from drive_bridge.families.registry import register_family
+from drive_bridge.model import Identity
 
 
 @register_family
@@ -13,3 +14,7 @@ class Generic301(DriveFamily):
     description = 'CiA 301 node without a drive profile (needs an EDS in the config)'
     has_cia402 = False
     max_axes = 0
+
+    def identity_match(self, identity: Identity, device_name: str) -> IdentityMatch:
+        """Any CANopen node: the fallback when no family knows it."""
+        return IdentityMatch.ANY

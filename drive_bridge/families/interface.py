@@ -20,15 +20,18 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | vendor parameters?               | ``parameters``                                         |
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
 | defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
+| is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
 """
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from enum import Enum
+from enum import Enum, IntEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
+import canopen
 from canopen import ObjectDictionary
 
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
@@ -37,7 +40,7 @@ from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
+from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
 
 if TYPE_CHECKING:
     from drive_bridge.families.parameters import ParameterAccess, ParameterPort
@@ -81,6 +84,61 @@ class PdoPlan:
     axes: tuple[AxisConfig, ...]
     polled: tuple[tuple[int, int], ...] = ()
     summary: str = ''
+class IdentityMatch(IntEnum):
+    """How surely a node found on a bus (0x1000, 0x1008, 0x1018) is one of a family's drives."""
+
+    NONE = 0
+    ANY = 1  # the family takes any CANopen node (a fallback)
+    PROFILE = 2  # the device profile (0x1000, low word) fits
+    DEVICE_TYPE = 3  # the whole device type fits
+    VENDOR = 4  # the vendor id fits
+    PRODUCT = 5  # the vendor id and product code (or the device name) fit
+
+
+@dataclass(frozen=True)
+class EdsIdentity:
+    """What a shipped EDS says of its device: [DeviceInfo] and the defaults of 0x1000/0x1008."""
+
+    vendor_id: int
+    vendor_name: str
+    product_code: int
+    device_type: int
+    device_name: str
+
+
+def _default(od: ObjectDictionary, index: int) -> Any:
+    try:
+        return od[index].default  # type: ignore[union-attr]
+    except (KeyError, AttributeError):
+        return None
+
+
+@functools.cache
+def eds_identity(path: Path) -> EdsIdentity:
+    """The identity a shipped EDS describes (read once)."""
+    od = canopen.import_od(str(path))
+    info = od.device_information
+    return EdsIdentity(int(info.vendor_number or 0), str(info.vendor_name or ''), int(info.product_number or 0),
+                       int(_default(od, 0x1000) or 0), str(_default(od, 0x1008) or ''))
+
+
+def match_eds_identity(eds: EdsIdentity, identity: Identity, device_name: str) -> IdentityMatch:
+    """A node's identity against an EDS: a vendor id that differs rules the EDS out; vendor
+    id 0 (unassigned) in the EDS matches only together with its product code."""
+    if eds.vendor_id and identity.vendor_id is not None and identity.vendor_id != eds.vendor_id:
+        return IdentityMatch.NONE
+    if eds.device_name and device_name == eds.device_name:
+        return IdentityMatch.PRODUCT
+    if eds.product_code and (identity.vendor_id, identity.product_code) == (eds.vendor_id, eds.product_code):
+        return IdentityMatch.PRODUCT
+    if eds.vendor_id and identity.vendor_id == eds.vendor_id:
+        return IdentityMatch.VENDOR
+    if eds.device_type and identity.device_type == eds.device_type:
+        return IdentityMatch.DEVICE_TYPE
+    if eds.device_type and identity.device_type is not None and \
+            identity.device_type & 0xFFFF == eds.device_type & 0xFFFF:
+        return IdentityMatch.PROFILE
+    return IdentityMatch.NONE
 
 
 class DriveFamily:
@@ -154,6 +212,23 @@ class DriveFamily:
         gives none): (the values the joint driver gets, [(key, error message)]). By default a
         family takes no such settings."""
         return {}, [(key, f"family '{self.name}' takes no drive settings") for key in options]
+
+    # -- scan ----------------------------------------------------------------------------------
+    def _shipped_identities(self) -> list[EdsIdentity]:
+        paths = {p for p in (self.eds_for(n) for n in range(1, max(self.max_axes, 1) + 1)) if p is not None}
+        return [eds_identity(p) for p in sorted(paths)]
+
+    def identity_match(self, identity: Identity, device_name: str) -> IdentityMatch:
+        """How surely a node that reports ``identity`` (0x1000, 0x1018; None where it did not
+        answer) and ``device_name`` (0x1008) is one of this family's drives. By default: its
+        shipped EDS files' [DeviceInfo] and defaults of 0x1000 / 0x1008."""
+        return max((match_eds_identity(e, identity, device_name) for e in self._shipped_identities()),
+                   default=IdentityMatch.NONE)
+
+    def vendor_name(self, vendor_id: int) -> str | None:
+        """The vendor of ``vendor_id`` (0x1018:1) when this family knows it."""
+        return next((e.vendor_name for e in self._shipped_identities()
+                     if e.vendor_id == vendor_id != 0 and e.vendor_name), None)
 
     # -- boot --------------------------------------------------------------------------------
     def is_bootup_emcy(self, data: bytes) -> bool:

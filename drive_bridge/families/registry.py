@@ -12,7 +12,8 @@ import logging
 from importlib.metadata import entry_points
 
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.families.interface import DriveFamily
+from drive_bridge.families.interface import DriveFamily, IdentityMatch
+from drive_bridge.model import Identity
 
 ENTRY_POINT_GROUP = 'drive_bridge.families'
 log = logging.getLogger('drive_bridge.families')
@@ -82,3 +83,9 @@ def get_family(name: str) -> DriveFamily:
 def family_names() -> list[str]:
     _load_entry_points()
     return sorted(_REGISTRY)
+
+
+def families_for_identity(identity: Identity, device_name: str = '') -> list[tuple[IdentityMatch, str]]:
+    """The families that say a node with this identity may be theirs, surest first (ties by name)."""
+    matches = [(get_family(name).identity_match(identity, device_name), name) for name in family_names()]
+    return sorted((m for m in matches if m[0] is not IdentityMatch.NONE), key=lambda m: (-m[0], m[1]))

@@ -40,7 +40,7 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects
-from drive_bridge.families.interface import DriveFamily, Liveness
+from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
@@ -49,7 +49,7 @@ from drive_bridge.families.s120.driver import S120Axis
 from drive_bridge.families.s120.options import parse_options
 from drive_bridge.families.s120.parameters import S120Parameters, read_number
 from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
+from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
 
 log = logging.getLogger('drive_bridge.families.s120')
 
@@ -88,6 +88,12 @@ class SinamicsS120(DriveFamily):
     # -- configuration ------------------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
         return None
+
+    def identity_match(self, identity: Identity, device_name: str) -> IdentityMatch:
+        """No EDS is shipped: the modular node's device type (several CiA 402 logical devices)."""
+        if identity.device_type == (eds.MULTI_DEVICE << 16) | eds.DRIVE_PROFILE:
+            return IdentityMatch.DEVICE_TYPE
+        return IdentityMatch.NONE
 
     def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:
         problems = eds.prepare(od, slots)

@@ -1,0 +1,45 @@
+"""``drive-bridge scan``: find the nodes on a live bus, name them, write a starter bus config."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import canopen
+
+from drive_bridge.bag.scan import ScanError, parse_node_ids, scan
+from drive_bridge.bag.starter import starter_config
+
+NAME = 'scan'
+HELP = 'find the nodes on a live bus (identity, vendor, drive family) and write a starter bus config'
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('--interface', default='virtual', help='python-can interface (default: virtual)')
+    parser.add_argument('--channel', required=True, help='python-can channel')
+    parser.add_argument('--bitrate', type=int, help='bit/s (default: the interface\'s)')
+    parser.add_argument('--nodes', default='1-127', help='node ids to ask, e.g. 1-127 or 2,3,10-12')
+    parser.add_argument('--timeout', type=float, default=0.2, help='s to wait for each SDO answer (default 0.2)')
+    parser.add_argument('-o', '--output', type=Path, help='write a starter bus config here')
+
+
+def run(args: argparse.Namespace) -> int:
+    ids = parse_node_ids(args.nodes)
+    if not args.timeout > 0:
+        raise ScanError(f'--timeout {args.timeout}: must be > 0')
+    if args.output is not None and args.output.exists():
+        raise ScanError(f'{args.output}: exists already; not overwritten')
+    network = canopen.Network()
+    kwargs = {'bitrate': args.bitrate} if args.bitrate else {}
+    try:
+        network.connect(interface=args.interface, channel=args.channel, **kwargs)
+    except Exception as exc:
+        raise ScanError(f'cannot open CAN bus interface={args.interface!r} channel={args.channel!r}: {exc}') from exc
+    try:
+        found = scan(network, ids, args.timeout, on_node=lambda node: print(node.describe()))
+    finally:
+        network.disconnect()
+    print(f'{len(found)} node(s) answered of {len(ids)} asked')
+    if args.output is not None:
+        args.output.write_text(starter_config(found, args.interface, args.channel, args.bitrate), encoding='utf-8')
+        print(f'starter config: {args.output}')
+    return 0 if found else 1

@@ -1,0 +1,88 @@
+"""``drive-bridge scan``: the demo's simulated drives (and an AKD) are found on their virtual
+bus, named, matched to their drive family, and the starter config written boots them."""
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from bustools import config_from, demo_data, unique_channel
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.cli.main import main
+from drive_bridge.config.loader import load_bus_config
+from drive_bridge.families import IdentityMatch, families_for_identity, get_family
+from drive_bridge.families.interface import eds_identity
+from drive_bridge.master.master import Master
+from drive_bridge.model import Identity
+from drive_bridge.sim import SimulatedBus, simulator_for
+from drive_bridge.sim.testing import AKD_EDS, node_config
+
+
+@pytest.fixture
+def demo_bus():
+    """The demo's drives (nodes 2, 3 with two axes, 4) plus an AKD as node 5, powered on."""
+    config = config_from(demo_data())
+    with SimulatedBus(config):
+        akd = simulator_for('akd')(node_config(5, eds=AKD_EDS, family='akd'))
+        akd.connect(config.bus.channel)
+        akd.power_on()
+        time.sleep(0.2)  # boot-up frames out: the nodes answer SDO in pre-operational
+        try:
+            yield config
+        finally:
+            akd.close()
+
+
+def test_scan_finds_the_drives_and_its_starter_config_boots_them(demo_bus, tmp_path, capsys) -> None:
+    out = tmp_path / 'bus.yaml'
+    channel = str(demo_bus.bus.channel)
+    assert main(['scan', '--interface', 'virtual', '--channel', channel, '--nodes', '1-127', '-o', str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert '4 node(s) answered of 127 asked' in printed
+    akd_line = next(line for line in printed.splitlines() if line.startswith('node   5'))
+    assert 'family akd' in akd_line and get_family('akd').vendor_name(0x6A) in akd_line
+    config = load_bus_config(out)
+    assert {n.node_id: n.family for n in config.nodes} == {2: 'generic_402', 3: 'generic_402', 4: 'generic_402',
+                                                           5: 'akd'}
+    assert [len(n.axes) for n in config.nodes] == [1, 2, 1, 1]
+    assert config.nodes[3].identity.vendor_id == 0x6A
+    master = Master(config)
+    try:
+        master.start()
+        master.wait_until_operational(15.0)
+        assert len(master.axes) == 5
+        for axis in master.axes.values():
+            assert axis.snapshot().state is not State.UNKNOWN
+    finally:
+        master.stop()
+
+
+def test_families_recognise_their_shipped_identities() -> None:
+    for family in ('akd', 'servostar', 'generic_402', 'opendrive'):
+        eds = eds_identity(get_family(family).eds_for(1))
+        identity = Identity(eds.device_type, eds.vendor_id, eds.product_code)
+        best = families_for_identity(identity, eds.device_name)[0]
+        assert best == (IdentityMatch.PRODUCT, family)
+    # an unknown CiA 402 servo: the generic family by its device type; an I/O module: generic_301
+    assert families_for_identity(Identity(0x00020192, 0x1234, 7))[0] == (IdentityMatch.DEVICE_TYPE, 'generic_402')
+    assert families_for_identity(Identity(0x000F0191, 0x1234, 7)) == [(IdentityMatch.ANY, 'generic_301')]
+    # a Kollmorgen product none of the families knows: both Kollmorgen families, by vendor
+    assert [f for m, f in families_for_identity(Identity(0x00020192, 0x6A, 1)) if m is IdentityMatch.VENDOR] == \
+        ['akd', 'servostar']
+    assert families_for_identity(Identity(0xFFFF0192, 0x1234, 1))[0] == (IdentityMatch.DEVICE_TYPE, 'sinamics_s120')
+
+
+def test_scan_errors_and_an_empty_bus(tmp_path, capsys) -> None:
+    assert main(['scan', '--channel', 'x', '--nodes', '0-200']) == 2
+    assert "'0-200' is outside the node ids 1..127" in capsys.readouterr().err
+    assert main(['scan', '--channel', 'x', '--nodes', 'two']) == 2
+    assert "'two' is not a node id" in capsys.readouterr().err
+    (tmp_path / 'taken.yaml').write_text('')
+    assert main(['scan', '--channel', 'x', '-o', str(tmp_path / 'taken.yaml')]) == 2
+    assert 'exists already' in capsys.readouterr().err
+    assert main(['scan', '--interface', 'nonesuch', '--channel', 'x']) == 2
+    assert "interface='nonesuch'" in capsys.readouterr().err
+    started = time.monotonic()
+    assert main(['scan', '--channel', unique_channel('empty'), '--timeout', '0.1']) == 1
+    assert time.monotonic() - started < 2.0, 'all 127 ids are asked at once, not one after the other'
+    assert '0 node(s) answered of 127 asked' in capsys.readouterr().out
