@@ -17,6 +17,7 @@ from drive_bridge.errors import DriveBridgeError
 # (verb, module under drive_bridge.cli, one-line help): the help is here so that listing the
 # verbs imports nothing.
 COMMANDS: tuple[tuple[str, str, str], ...] = (
+    ('diagnose', 'diagnose', 'diagnose a bag or CAN trace: findings, timelines, SDO log, plots (HTML, JSON)'),
 )
 
 PROG = 'drive-bridge'
