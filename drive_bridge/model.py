@@ -235,6 +235,16 @@ class SimulationConfig:
 
 
 @dataclass(frozen=True)
+class RecordConfig:
+    """Recording the bus into a rosbag2 MCAP bag (the node's ``record.*`` parameters start from here)."""
+
+    path: str = 'bags'  # directory of the bags; each recording is a new bag <channel>_<UTC time> in it
+    split_size_mb: float = 0.0  # rotate to a new split at this size (0 = no size limit)
+    split_seconds: float = 0.0  # rotate to a new split after this long (0 = no time limit)
+    start: bool = False  # start recording when the node starts (before the bus opens)
+
+
+@dataclass(frozen=True)
 class BusConfig:
     """One bus: interface, master, nodes and their axes."""
 
@@ -242,6 +252,7 @@ class BusConfig:
     master: MasterConfig = field(default_factory=MasterConfig)
     nodes: tuple[NodeConfig, ...] = ()
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
+    record: RecordConfig = field(default_factory=RecordConfig)
     path: Path | None = None
     warnings: tuple[str, ...] = ()  # accepted but ignored keys (e.g. ros2_canopen ones), each located
 

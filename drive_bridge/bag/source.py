@@ -1,19 +1,48 @@
-"""Temporary stand-in for bag-record's ``open_recording`` (python-can trace formats only).
+"""One way to read every recording: rosbag2 bags of this package, python-can traces, MiniMon.
 
-Same signature as the shared interface (docs: bag-interface); replaced by bag-record's version
-(rosbag2 MCAP and the IXXAT MiniMon trace) when that branch is merged.
+:func:`open_recording` looks at the path once and returns a :class:`Recording` whose
+``frames()`` iterates the raw CAN frames in time order, so the diagnosis and replay tools
+never care where the frames came from.
 """
 from __future__ import annotations
 
+import struct
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import can
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import Connection
 
 from drive_bridge.bag.errors import BagError
+from drive_bridge.bag.ixxat import is_minimon, read_minimon
+from drive_bridge.bag.typestore import typestore
+from drive_bridge.bag.writer import CONFIG_TOPIC, FILES_TOPIC, FRAME_TYPE
 
-_FORMATS = {'.trc': 'trc', '.asc': 'asc', '.blf': 'blf', '.log': 'candump', '.csv': 'csv'}
+# python-can's LogReader formats by file suffix, and the name a Recording reports for each
+TRACE_FORMATS: Mapping[str, str] = {
+    '.trc': 'trc', '.asc': 'asc', '.blf': 'blf', '.log': 'candump', '.csv': 'csv',
+    '.db': 'sqlite', '.mf4': 'mf4',
+}
+_HEAD = struct.Struct('<iII')
+_FRAME = struct.Struct('<IBBBBI')
+
+
+def decode_frame(cdr: bytes | memoryview) -> can.Message:
+    """A drive_bridge_interfaces/CanFrame from CDR (little-endian), by hand: fast."""
+    buf = memoryview(cdr)[4:]
+    sec, nsec, length = _HEAD.unpack_from(buf, 0)
+    channel = bytes(buf[12:12 + length - 1]).decode('utf-8')
+    offset = 12 + length
+    offset += -offset % 4
+    ident, ext, rtr, err, dlc, size = _FRAME.unpack_from(buf, offset)
+    offset += _FRAME.size
+    data = bytes(buf[offset:offset + size])
+    return can.Message(timestamp=sec + nsec * 1e-9, arbitration_id=ident, is_extended_id=bool(ext),
+                       is_remote_frame=bool(rtr), is_error_frame=bool(err), dlc=dlc, data=data,
+                       is_rx=buf[offset + size] == 0, channel=channel, check=False)
 
 
 @dataclass(frozen=True)
@@ -21,23 +50,97 @@ class Recording:
     """What a bag or a trace holds for decoding: its frames and the files stored with it."""
 
     path: Path
-    format: str
-    config_yaml: str | None = None
-    files: Mapping[str, bytes] = field(default_factory=dict)
+    format: str                  # 'rosbag2-mcap', 'trc', 'asc', 'blf', 'candump', 'csv', 'ixxat-minimon', ...
+    config_yaml: str | None      # the bus config stored in the bag (None for vendor traces)
+    files: Mapping[str, bytes] = field(default_factory=dict)  # EDS/DCF by the name the config uses
 
     def frames(self) -> Iterator[can.Message]:
-        try:
-            yield from can.LogReader(str(self.path))
-        except (ValueError, IndexError) as exc:
-            raise BagError(f'{self.path}: not a readable {self.format} trace: {exc}') from exc
+        """Frames in time order (timestamp in s); BagError naming the frame where the input breaks."""
+        if self.format == 'rosbag2-mcap':
+            yield from _bag_frames(self.path)
+        elif self.format == 'ixxat-minimon':
+            yield from read_minimon(self.path)
+        else:
+            yield from _trace_frames(self.path)
 
 
 def open_recording(path: Path) -> Recording:
-    """A trace python-can reads; BagError naming the file and what is wrong."""
+    """A rosbag2 directory or .mcap file, or any trace python-can reads, or an IXXAT MiniMon
+    trace; BagError naming the file and what is wrong (missing, unknown format, truncated...)."""
     path = Path(path)
     if not path.exists():
-        raise BagError(f'{path}: no such file')
-    fmt = _FORMATS.get(path.suffix.lower())
+        raise BagError(f'{path}: no such file or directory')
+    if path.is_dir() or path.suffix == '.mcap':
+        return _open_bag(path)
+    if is_minimon(path):
+        return Recording(path, 'ixxat-minimon', None, {})
+    fmt = TRACE_FORMATS.get(path.suffix.lower())
     if fmt is None:
-        raise BagError(f'{path}: unknown trace format {path.suffix!r} (known: {", ".join(sorted(_FORMATS))})')
-    return Recording(path, fmt)
+        known = ', '.join(sorted(TRACE_FORMATS))
+        raise BagError(f'{path}: unknown format {path.suffix!r} (known: rosbag2 directory, .mcap, {known}, '
+                       'IXXAT MiniMon ASCII trace)')
+    return Recording(path, fmt, None, {})
+
+
+def _reader(path: Path) -> AnyReader:
+    if path.is_dir() and not (path / 'metadata.yaml').exists():
+        hint = f' (a split left open? run: drive-bridge recover {path})' if any(path.glob('*.mcap')) else ''
+        raise BagError(f'{path}: not a rosbag2 bag: no metadata.yaml{hint}')
+    reader = AnyReader([path], default_typestore=typestore())
+    try:
+        reader.open()
+    except Exception as exc:
+        raise BagError(f'{path}: unreadable bag (truncated or corrupt? try drive-bridge recover): {exc}') from exc
+    return reader
+
+
+def _open_bag(path: Path) -> Recording:
+    reader = _reader(path)
+    try:
+        config: str | None = None
+        files: dict[str, bytes] = {}
+        stored = [c for c in reader.connections if c.topic in (CONFIG_TOPIC, FILES_TOPIC)]
+        for connection, _, raw in reader.messages(connections=stored):
+            msg: Any = reader.deserialize(raw, connection.msgtype)
+            if connection.topic == CONFIG_TOPIC:
+                config = config if config is not None else msg.data
+            else:
+                files.setdefault(msg.key, msg.value.encode('utf-8'))
+    except Exception as exc:
+        raise BagError(f'{path}: corrupt bag: {exc}') from exc
+    finally:
+        reader.close()
+    return Recording(path, 'rosbag2-mcap', config, files)
+
+
+def frame_connections(connections: list[Connection]) -> list[Connection]:
+    return [c for c in connections if c.msgtype == FRAME_TYPE]
+
+
+def _bag_frames(path: Path) -> Iterator[can.Message]:
+    reader = _reader(path)
+    try:
+        count = 0
+        try:
+            for _, _, raw in reader.messages(connections=frame_connections(reader.connections)):
+                yield decode_frame(raw)
+                count += 1
+        except (struct.error, IndexError, UnicodeDecodeError) as exc:
+            raise BagError(f'{path}: frame {count + 1}: corrupt CanFrame message: {exc}') from exc
+        except BagError:
+            raise
+        except Exception as exc:
+            raise BagError(f'{path}: after frame {count}: truncated or corrupt bag: {exc}') from exc
+    finally:
+        reader.close()
+
+
+def _trace_frames(path: Path) -> Iterator[can.Message]:
+    count = 0
+    try:
+        for msg in can.LogReader(path):
+            yield msg
+            count += 1
+    except Exception as exc:  # python-can's readers raise ValueError, struct.error, their own...
+        raise BagError(f'{path}: after frame {count}: cannot read the trace (truncated or corrupt?): '
+                       f'{type(exc).__name__}: {exc}') from exc

@@ -2,12 +2,13 @@
 with a warning. One place, so docs/configuration.md and the checks agree."""
 from __future__ import annotations
 
-TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation')
+TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation', 'record')
 BUS = ('interface', 'channel', 'bitrate', 'options')
 OPTIONS = ('dcf_path', 'heartbeat_multiplier')
 MASTER = ('node_id', 'sync_period', 'sync_producer', 'heartbeat_producer', 'heartbeat_consumer',
           'heartbeat_multiplier', 'baudrate')
 SIMULATION = ('enabled', 'nodes')
+RECORD = ('path', 'split_size_mb', 'split_seconds', 'start')
 
 _ROS_COMPONENT = 'ros2_canopen component setting; drive_bridge runs no ros2_canopen components'
 _LELY_MASTER = 'lely master DCF setting; drive_bridge configures its master from this file itself'

@@ -14,6 +14,7 @@ from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
 from drive_bridge.config.reader import Section, describe, suggestion
+from drive_bridge.config.record import parse_record
 from drive_bridge.config.yamlio import parse_yaml, read_yaml
 from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
 
@@ -181,9 +182,10 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     # a node with a clashing id clashes in every predefined COB-ID too: reported once above
     check_cob_ids(issues, [pdo for draft in drafts if draft.name not in clashing for pdo in draft.pdos])
     simulation = _simulation(root.section('simulation'), names, bus)
+    record = parse_record(root.section('record'))
     issues.raise_if_errors()
     return BusConfig(bus=bus, master=master, nodes=tuple(d.config for d in drafts if d.config is not None),
-                     simulation=simulation, path=path, warnings=issues.warning_texts())
+                     simulation=simulation, record=record, path=path, warnings=issues.warning_texts())
 
 
 def load_bus_config(path: str | os.PathLike[str]) -> BusConfig:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from rclpy.node import Node
 
+from drive_bridge.bag.errors import BagError
 from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import DriveState
@@ -17,6 +18,7 @@ from drive_bridge.model import BusConfig
 from drive_bridge.ros.command_topics import CommandTopics
 from drive_bridge.ros.param_services import ParameterServices
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare
+from drive_bridge.ros.recording import Recording
 from drive_bridge.ros.services import BridgeServices
 from drive_bridge.ros.state_topics import StateTopics
 from drive_bridge.ros.trajectory_action import TrajectoryAction
@@ -71,6 +73,12 @@ class Bridge:
         existing = _entities(node)
         self.master = Master(config)
         self.master.add_event_listener(self._log_event)
+        try:  # before the bus opens: record.start records from the first frame
+            self.recording = Recording(node, self.master, config, config_text(params, config))
+        except BagError as exc:
+            if self.simulation is not None:
+                self.simulation.stop()
+            raise StartupError(str(exc)) from None
         self.master.start()
         self.trajectories = TrajectoryExecutor(
             self.master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
@@ -83,6 +91,9 @@ class Bridge:
         self.parameter_services = ParameterServices(node, self.master, self.service_handlers.pool)
         self.trajectory_action = TrajectoryAction(node, self.master, self.trajectories)
         self.state_topics.attach()
+        self.state_topics.tee = self.recording.tee
+        self.state_topics.diagnostic_sources.append(self.recording.status)
+        self.recording.attach()
         self._entities = [e for e in _entities(node) if id(e) not in {id(x) for x in existing}]
         self.set_active(False)
         bus = config.bus
@@ -143,6 +154,7 @@ class Bridge:
         self.state_topics.active = self.command_topics.active = False
         self.trajectories.stop(list(self.master.axes), 'bridge shutting down')
         self.master.stop()
+        self.recording.close()  # after the bus: the bag has every frame the tap counted
         if self.simulation is not None:
             self.simulation.stop()
         self.service_handlers.pool.shutdown(wait=False, cancel_futures=True)
@@ -156,6 +168,16 @@ class Bridge:
 
 def _entities(node: Node) -> list:
     return [*node.publishers, *node.subscriptions, *node.services, *node.timers]
+
+
+def config_text(params: BridgeParameters, config: BusConfig) -> str | None:
+    """The bus configuration as the user wrote it, to store in a bag."""
+    if params.config_yaml:
+        return params.config_yaml
+    try:
+        return config.path.read_text(encoding='utf-8') if config.path is not None else None
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 def declare_and_load(node: Node, config_path: str) -> tuple[BridgeParameters, BusConfig]:

@@ -8,9 +8,11 @@ someone subscribes.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from typing import Any
 
 import can
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.msg import AxisStates, CanFrame, Emcy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -54,6 +56,15 @@ class StateTopics:
         self._unavailable: set[str] = set()
         self._seen: set[str] = set()  # joints published at least once
         self.active = False
+        # the recorder's tee (topic, message) after each publish, and extra /diagnostics lines
+        self.tee: Callable[[str, Any], None] | None = None
+        self.diagnostic_sources: list[Callable[[], DiagnosticStatus]] = []
+
+    def _publish(self, publisher: Any, msg: Any) -> None:
+        publisher.publish(msg)
+        tee = self.tee
+        if tee is not None:
+            tee(publisher.topic_name, msg)
 
     def attach(self) -> None:
         """Register with the master and start the timers."""
@@ -103,7 +114,7 @@ class StateTopics:
         if not msg.name:
             return
         msg.header.stamp = stamp_from_seconds(newest) if newest else self.node.get_clock().now().to_msg()
-        self.joint_states.publish(msg)
+        self._publish(self.joint_states, msg)
 
     def publish_axis_states(self, force: bool) -> None:
         """On every change of state, mode or flags; and at state_rate when forced."""
@@ -118,7 +129,7 @@ class StateTopics:
         msg = AxisStates()
         msg.header.stamp = self.node.get_clock().now().to_msg()
         msg.axes = [axis_state_msg(s) for s in snapshots]
-        self.axis_states.publish(msg)
+        self._publish(self.axis_states, msg)
 
     # -- EMCY and frames (CAN threads) -----------------------------------------------------------
     def on_emcy(self, event: EmcyEvent) -> None:
@@ -127,7 +138,7 @@ class StateTopics:
             joint = joints.get(event.slot, '')
         else:
             joint = next(iter(joints.values())) if len(joints) == 1 else ''
-        self.emcy.publish(emcy_msg(event, joint))
+        self._publish(self.emcy, emcy_msg(event, joint))
         # one call site per severity (rclpy), as the drive family reads the EMCY
         if event.is_reset or event.severity is Severity.INFO:
             self.node.get_logger().info(str(event))
@@ -146,5 +157,6 @@ class StateTopics:
     # -- diagnostics (executor) ------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
         array = diagnostics(self.master.snapshot(), self.node.get_fully_qualified_name())
+        array.status.extend(source() for source in self.diagnostic_sources)
         array.header.stamp = self.node.get_clock().now().to_msg()
-        self.diagnostics.publish(array)
+        self._publish(self.diagnostics, array)
