@@ -30,6 +30,7 @@ class FaultRecording:
     t0: float = 0.0  # time of the first frame (the drive's power-on boot-up)
     times: dict[str, float] = field(default_factory=dict)  # fault -> wall-clock time injected
     frames: int = 0
+    messages: list[can.Message] = field(default_factory=list)
 
 
 def _write_pdo(remote: object, comm: int, cob: int, entries: list[int]) -> None:
@@ -124,4 +125,18 @@ def record_faults(path: Path) -> FaultRecording:
         writer.stop()
         rec.t0 = frames[0].timestamp
         rec.frames = len(frames)
+        rec.messages = frames
     return rec
+
+
+CONFIG_YAML = """
+bus: {interface: virtual, channel: diagnose_faults, bitrate: 1000000}
+master: {node_id: 127, sync_period: 10000}
+nodes:
+  wrist_drive:
+    node_id: 5
+    family: generic_402
+    heartbeat_producer: 50
+    axes:
+      - joint: wrist_joint
+"""

@@ -46,7 +46,8 @@ class Diagnosis:
     error_frames: int = 0
     extended_frames: int = 0
     remote_frames: int = 0
-    counts: list[int] = field(default_factory=lambda: [0] * 2048)
+    counts: list[int] = field(default_factory=lambda: [0] * 2048)  # data frames per COB-ID
+    remote_counts: list[int] = field(default_factory=lambda: [0] * 2048)  # RTR frames per COB-ID
     nmt: NmtTimeline = field(init=False)
     liveness: Liveness = field(init=False)
     sdo: SdoLog = field(init=False)
@@ -70,8 +71,8 @@ class Diagnosis:
 
     def nodes_addressed_only(self) -> list[int]:
         seen = set(self.nodes_seen())
-        return [n for n in range(1, 128)
-                if n not in seen and any(self.counts[base + n] for base in TO_NODE)]
+        return [n for n in range(1, 128) if n not in seen and (
+            any(self.counts[base + n] for base in TO_NODE) or self.remote_counts[0x700 + n])]
 
     def frames_from(self, node: int) -> int:
         return sum(self.counts[base + node] for base in FROM_NODE)
@@ -167,6 +168,7 @@ class Engine:
         d = self.d
         handlers = self.handlers
         counts = d.counts
+        remote_counts = d.remote_counts
         nominal_bins = d.busload.nominal
         stuffed_bins = d.busload.stuffed
         inv = 1.0 / BIN_S
@@ -192,14 +194,15 @@ class Engine:
                 stuffed_bins[b] += EXT_STUFF[0 if msg.is_remote_frame else dlc]
                 continue
             cob = msg.arbitration_id
-            counts[cob] += 1
             if msg.is_remote_frame:
                 remote += 1
+                remote_counts[cob] += 1
                 nominal_bins[b] += NOMINAL[0]
                 stuffed_bins[b] += STUFF[0]
                 if 0x700 < cob < 0x780:
                     liveness.frame(t, cob, b'', True)
                 continue
+            counts[cob] += 1
             nominal_bins[b] += NOMINAL[dlc]
             stuffed_bins[b] += STUFF[dlc]
             handler = handlers[cob]

@@ -42,7 +42,8 @@ class Liveness:
     def node(self, node: int) -> NodeLiveness:
         live = self.nodes.get(node)
         if live is None:
-            live = self.nodes[node] = NodeLiveness(producer_ms=self.ctx.node(node).heartbeat_ms)
+            info = self.ctx.nodes.get(node)
+            live = self.nodes[node] = NodeLiveness(producer_ms=info.heartbeat_ms if info else 0)
         return live
 
     def frame(self, t: float, cob: int, data: bytes | bytearray, remote: bool) -> None:

@@ -85,5 +85,6 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
         'busload': d.busload.to_json(),
         'pdo': d.pdo.rows(),
         'following_error': d.following.to_json(),
-        'cob_ids': {f'0x{cob:03X}': n for cob, n in enumerate(d.counts) if n},
+        'cob_ids': {f'0x{cob:03X}' + (' RTR' if rtr else ''): n for cob in range(2048)
+                    for rtr, n in ((False, d.counts[cob]), (True, d.remote_counts[cob])) if n},
     }
