@@ -26,7 +26,6 @@ from drive_bridge.bag.diagnose.sync import SyncStats
 from drive_bridge.bag.source import Recording
 
 Handler = Callable[[float, int, Any], None]
-FOLLOWED = (0x6040, 0x6041, 0x6062, 0x6064, 0x607A)
 # COB-IDs a node sends itself (EMCY, TPDO1-4, SDO response, error control): "seen" means these
 FROM_NODE = (0x080, 0x180, 0x280, 0x380, 0x480, 0x580, 0x700)
 TO_NODE = (0x200, 0x300, 0x400, 0x500, 0x600)
@@ -91,7 +90,10 @@ class Engine:
         d.following = FollowingError(ctx)
         d.sync = SyncStats(ctx)
         d.busload = BusLoad(ctx.bitrate)
-        d.pdo = Pdos(ctx, d.identities, self.object_value, FOLLOWED)
+        self.sinks = {0x6040: d.cia402.controlword, 0x6041: d.cia402.statusword,
+                      0x6062: d.following.position_demand, 0x6064: d.following.actual,
+                      0x607A: d.following.target_position}
+        d.pdo = Pdos(ctx, d.identities, self.sinks)
         self.handlers: list[Handler | None] = [None] * 2048
         h = self.handlers
         h[0] = d.nmt.command
@@ -149,19 +151,12 @@ class Engine:
             self.object_value(txn.t_response or txn.t_request, txn.node, index, txn.subindex, value)
 
     def object_value(self, t: float, node: int, index: int, subindex: int, value: int) -> None:
-        if not 0x6000 <= index < 0xA000:
+        """A value of a CiA 402 axis object read or written by SDO, to the analyser that follows it."""
+        if not 0x6000 <= index < 0xA000 or subindex:
             return
-        slot = (index - 0x6000) >> 11
-        base = 0x6000 + ((index - 0x6000) & 0x7FF)
-        d = self.d
-        if base == 0x6041:
-            d.cia402.statusword(t, node, slot, value)
-        elif base == 0x6040:
-            d.cia402.controlword(t, node, slot, value)
-        elif base == 0x6064:
-            d.following.actual(t, node, slot, value)
-        elif base in (0x6062, 0x607A):
-            d.following.demand(t, node, slot, base, value)
+        sink = self.sinks.get(0x6000 + ((index - 0x6000) & 0x7FF))
+        if sink is not None:
+            sink(t, node, (index - 0x6000) >> 11, value)
 
     # -- the pass --------------------------------------------------------------------------
     def run(self, frames: Iterable[can.Message]) -> Diagnosis:

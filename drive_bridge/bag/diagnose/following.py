@@ -28,11 +28,18 @@ class FollowingError:
             axis = self.axes[(node, slot)] = AxisFollowing()
         return axis
 
-    def demand(self, t: float, node: int, slot: int, base: int, value: int) -> None:
+    def position_demand(self, t: float, node: int, slot: int, value: int) -> None:
+        """0x6062: what the drive's own profile / interpolation demands."""
         axis = self.axes.get((node, slot)) or self._axis(node, slot)
-        if base == 0x6062 or axis.demand_index != 0x6062:  # the demand value wins over the target
+        axis.demand = value
+        axis.demand_index = 0x6062
+
+    def target_position(self, t: float, node: int, slot: int, value: int) -> None:
+        """0x607A: the master's set-point, the demand where 0x6062 is not recorded."""
+        axis = self.axes.get((node, slot)) or self._axis(node, slot)
+        if axis.demand_index != 0x6062:
             axis.demand = value
-            axis.demand_index = base
+            axis.demand_index = 0x607A
 
     def actual(self, t: float, node: int, slot: int, value: int) -> None:
         axis = self.axes.get((node, slot)) or self._axis(node, slot)

@@ -22,6 +22,7 @@ class NodeLiveness:
     producer_ms: int = 0  # from the config or a 0x1017 write in the trace
     guard_requests: list[float] = field(default_factory=list)
     guard_replies: int = 0
+    reply_times: list[float] = field(default_factory=list)
     guard_pending: float | None = None
     unanswered: list[float] = field(default_factory=list)
     toggle_errors: list[float] = field(default_factory=list)
@@ -74,6 +75,7 @@ class Liveness:
             live.guard_pending = None
             live.guard_replies += 1
             live.last_reply = t
+            live.reply_times.append(t)
         else:
             live.heartbeats.append(t)
         if state != live.last_state:

@@ -3,7 +3,7 @@ config, else the EDS defaults, else CiA 402's predefined TPDO1/RPDO1), rates and
 per-frame decoding of the objects other analysers follow (statusword, positions, ...)."""
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -14,7 +14,7 @@ from drive_bridge.bag.diagnose.model import Context, Severity
 from drive_bridge.bag.diagnose.names import is_signed, object_label
 from drive_bridge.bag.diagnose.sdo import SdoTransaction
 
-ObjectSink = Callable[[float, int, int, int, int], None]  # (t, node, index, subindex, value)
+AxisSink = Callable[[float, int, int, int], None]  # (t, node, axis slot, value)
 SILENCE_FACTOR = 5.0  # a PDO silent this many mean intervals (and >= 0.1 s) is a gap
 COMM = {0x1400: 'RPDO', 0x1800: 'TPDO'}
 
@@ -63,16 +63,14 @@ class CobStats:
 
 
 class Pdos:
-    def __init__(self, ctx: Context, identities: Identities, sink: ObjectSink,
-                 wanted: Iterable[int]) -> None:
+    def __init__(self, ctx: Context, identities: Identities, sinks: Mapping[int, AxisSink]) -> None:
         self.ctx = ctx
         self.identities = identities
-        self.sink = sink
-        self.wanted = frozenset(wanted)  # base indices (slot 0) some analyser follows
+        self.sinks = sinks  # base index (slot 0) -> the analyser that follows the object
         self.channels: dict[tuple[int, str, int], PdoChannel] = {}
         self.by_cob: dict[int, PdoChannel] = {}
         self.stats: dict[int, CobStats] = {}
-        self.decoders: dict[int, list[tuple[int, int, bool, int, int, int]]] = {}
+        self.decoders: dict[int, list[tuple[int, int, bool, AxisSink, int, int]]] = {}
         self.last_sync: float = -1.0
         self._resolved: set[int] = set()
         self.register: Callable[[int], None] = lambda cob: None  # the engine routes a new COB-ID here
@@ -114,8 +112,10 @@ class Pdos:
         bit = 0
         for index, sub, bits in channel.entries:
             base = 0x6000 + ((index - 0x6000) & 0x7FF) if 0x6000 <= index < 0xA000 else index
-            if base in self.wanted and bit % 8 == 0 and bits % 8 == 0 and bit + bits <= 64:
-                decoder.append((bit // 8, bits // 8, is_signed(od, index, sub), channel.node, index, sub))
+            sink = self.sinks.get(base)
+            if sink is not None and bit % 8 == 0 and bits % 8 == 0 and bit + bits <= 64:
+                decoder.append((bit // 8, bit // 8 + bits // 8, is_signed(od, index, sub), sink, channel.node,
+                                (index - 0x6000) >> 11))
             bit += bits
         if decoder:
             self.decoders[channel.cob_id] = decoder
@@ -200,9 +200,9 @@ class Pdos:
             if decoder is None:
                 return
         size = len(data)
-        for start, length, signed, node, index, sub in decoder:
-            if start + length <= size:
-                self.sink(t, node, index, sub, int.from_bytes(data[start:start + length], 'little', signed=signed))
+        for start, end, signed, sink, node, slot in decoder:
+            if end <= size:
+                sink(t, node, slot, int.from_bytes(data[start:end], 'little', signed=signed))
 
     # -- results ---------------------------------------------------------------------------
     def finish(self) -> None:

@@ -56,36 +56,47 @@ def busload(d: Diagnosis) -> str:
     return _svg(fig)
 
 
+def _alive_runs(times: list[float], period: float) -> list[tuple[float, float]]:
+    """(start, width) of the stretches without a gap longer than twice the period."""
+    limit = 2.0 * period + 0.02
+    runs = []
+    start = times[0]
+    for a, b in zip(times, times[1:]):
+        if b - a > limit:
+            runs.append((start, max(a - start, 0.01)))
+            start = b
+    runs.append((start, max(times[-1] - start, 0.01)))
+    return runs
+
+
 def timeline(d: Diagnosis) -> str:
-    """Per node: heartbeat runs as bars, gaps, boot-ups, NMT commands and EMCYs."""
-    nodes = sorted(set(d.nodes_seen()) | {e.node for e in d.nmt.events if e.node})
+    """Per node seen: heartbeat / guarding runs as bars, boot-ups, NMT commands and EMCYs."""
+    nodes = d.nodes_seen()
     fig, ax = _figure(max(1.6, 0.35 * len(nodes) + 1.0))
     t0 = d.t0
+    for time in sorted({e.time for e in d.nmt.events if e.kind == 'command' and e.node is None}):
+        ax.axvline(time, color='0.6', lw=0.5, zorder=0)
     for row, node in enumerate(nodes):
         live = d.liveness.nodes.get(node)
-        if live is not None and live.heartbeats:
-            beats = [b - t0 for b in live.heartbeats]
-            limit = 2.0 * (live.period or 1.0) + 0.02
-            start = beats[0]
-            runs = []
-            for a, b in zip(beats, beats[1:]):
-                if b - a > limit:
-                    runs.append((start, a - start))
-                    start = b
-            runs.append((start, beats[-1] - start))
-            ax.broken_barh([(s, max(w, 0.01)) for s, w in runs], (row - 0.3, 0.6), color='C2', alpha=0.5)
+        if live is not None:
+            for times, period, color in ((live.heartbeats, live.period, 'C2'),
+                                         (live.reply_times, live.guard_period, 'C9')):
+                if times:
+                    ax.broken_barh(_alive_runs([t - t0 for t in times], period or 1.0), (row - 0.3, 0.6),
+                                   color=color, alpha=0.5)
         boots = [t - t0 for t in d.nmt.boot_ups.get(node, [])]
         ax.plot(boots, [row] * len(boots), '^', color='C0', ms=7, label='boot-up' if row == 0 else None)
-        commands = [e.time for e in d.nmt.events if e.kind == 'command' and e.node in (node, None)]
-        ax.plot(commands, [row + 0.35] * len(commands), '|', color='k', ms=6, label='NMT command' if row == 0 else None)
+        commands = [e.time for e in d.nmt.events if e.kind == 'command' and e.node == node]
+        ax.plot(commands, [row + 0.35] * len(commands), '|', color='k', ms=6,
+                label='NMT command to the node' if row == 0 else None)
         emcys = [r.time for r in d.emcy.records if r.node == node and not r.event.is_reset]
         ax.plot(emcys, [row] * len(emcys), 'x', color='C3', ms=8, mew=2, label='EMCY' if row == 0 else None)
     ax.set_yticks(range(len(nodes)), [d.ctx.label(n) for n in nodes])
     ax.set_ylim(-0.7, len(nodes) - 0.3)
     ax.set_xlim(0, max(d.duration, 0.01))
     ax.set_xlabel('time [s]')
-    ax.set_title('Nodes: heartbeat / guarding alive (green), boot-ups, NMT commands, EMCYs')
-    handles, labels = ax.get_legend_handles_labels()
+    ax.set_title('Nodes: alive by heartbeat (green) / guarding (cyan); grey lines: NMT commands to all')
+    handles, _labels = ax.get_legend_handles_labels()
     if handles:
         ax.legend(loc='upper right', fontsize=8, ncols=3)
     return _svg(fig)
