@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray
@@ -20,6 +21,7 @@ from bustools import demo_data
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.typestore import typestore
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.ros.bridge import StartupError
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
@@ -138,3 +140,16 @@ def test_record_service_starts_and_stops_and_diagnostics_report_it(ros: RosHarne
         assert sum(1 for _ in open_recording(bag).frames()) == frames > 100
     finally:
         node.close()
+
+
+def test_bad_record_parameters_stop_the_node_with_the_reason(ros: RosHarness, tmp_path: Path) -> None:
+    with pytest.raises(StartupError, match=r'record\.split_seconds must be >= 0, got -1'):
+        BusNode(context=ros.context, parameter_overrides=[
+            Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
+            Parameter('record.split_seconds', value=-1.0)])
+    blocker = tmp_path / 'file'
+    blocker.write_text('')
+    with pytest.raises(StartupError, match='cannot create the bag directory'):
+        BusNode(context=ros.context, parameter_overrides=[
+            Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
+            Parameter('record.start', value=True), Parameter('record.path', value=str(blocker / 'bags'))])

@@ -263,8 +263,8 @@ def write_metadata(path: Path, splits: list[SplitInfo], types: Mapping[str, str]
     for split in splits:
         for topic, count in split.topics.items():
             counts[topic] = counts.get(topic, 0) + count
-    start = min((s.start_ns for s in splits), default=0)
-    end = max((s.end_ns for s in splits), default=0)
+    start = min((s.start_ns for s in splits if s.count), default=0)
+    end = max((s.end_ns for s in splits if s.count), default=0)
     info = {
         'version': ROSBAG2_VERSION,
         'storage_identifier': 'mcap',

@@ -17,6 +17,10 @@ from drive_bridge.errors import DriveBridgeError
 # (verb, module under drive_bridge.cli, one-line help): the help is here so that listing the
 # verbs imports nothing.
 COMMANDS: tuple[tuple[str, str, str], ...] = (
+    ('record', 'record', 'record a bus passively (listen only) into a rosbag2 MCAP bag'),
+    ('import', 'importer', 'convert a CAN trace (trc, asc, blf, candump, csv, IXXAT MiniMon...) to a bag'),
+    ('recover', 'recover', 'make a bag whose recorder was killed readable'),
+    ('info', 'info', 'topics, types, counts, duration and stored files of a bag or trace'),
     ('diagnose', 'diagnose', 'diagnose a bag or CAN trace: findings, timelines, SDO log, plots (HTML, JSON)'),
 )
 

@@ -149,10 +149,11 @@ class Recording:
 
     # -- what goes in besides the frames (any thread) --------------------------------------------------
     def tee(self, topic: str, msg: Any) -> None:
-        """A message the node just published: into the bag, stamped with its header."""
+        """A message the node just published: into the bag, stamped with its header (serialized
+        in the recorder's writer thread, not in the publishing one)."""
         recorder = self.recorder
         if recorder is not None:
-            recorder.add_message(topic, type_name(msg), stamp_ns(msg), serialize_message(msg))
+            recorder.add_message(topic, type_name(msg), stamp_ns(msg), msg, serialize_message)
 
     def on_event(self, event: BusEvent) -> None:
         recorder = self.recorder
@@ -162,7 +163,7 @@ class Recording:
         log = Log(level=LOG_LEVELS[event.level], name=event.node_name or 'bus', msg=event.message,
                   function=event.kind.value, file='', line=event.node_id)
         log.stamp.sec, log.stamp.nanosec = divmod(now, 1_000_000_000)
-        recorder.add_message(self._events_topic, 'rcl_interfaces/msg/Log', now, serialize_message(log))
+        recorder.add_message(self._events_topic, 'rcl_interfaces/msg/Log', now, log, serialize_message)
 
     def status(self) -> DiagnosticStatus:
         """The recording's line in /diagnostics."""

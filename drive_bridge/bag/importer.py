@@ -1,0 +1,90 @@
+"""Importing a trace (any python-can format, IXXAT MiniMon, or another bag) into the bag layout
+the bridge records: frames on ``/can/frames``, the bus config and its EDS/DCF files stored."""
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from tqdm import tqdm  # type: ignore[import-untyped]  # no stubs installed
+
+from drive_bridge.bag.recorder import config_files
+from drive_bridge.bag.source import Recording, open_recording
+from drive_bridge.bag.writer import BagWriter
+from drive_bridge.config import load_bus_config
+
+TEXT_FORMATS = ('trc', 'asc', 'candump', 'csv', 'ixxat-minimon')
+
+
+@dataclass(frozen=True)
+class ImportReport:
+    source: Path
+    format: str
+    bag: Path
+    frames: int
+    duration: float  # s, first to last frame
+    nodes: tuple[int, ...]  # node ids seen in the CANopen COB-ID ranges
+    warnings: tuple[str, ...] = ()
+
+    def summary(self) -> str:
+        nodes = ', '.join(map(str, self.nodes)) or 'none'
+        return (f'{self.source} ({self.format}) -> {self.bag}: {self.frames} frames, {self.duration:.1f} s, '
+                f'node ids {nodes}')
+
+
+def estimate_frames(recording: Recording) -> int | None:
+    """Lines of a text trace (a progress bar's total; a little over the frame count)."""
+    if recording.format in TEXT_FORMATS:
+        with recording.path.open('rb') as stream:
+            return sum(chunk.count(b'\n') for chunk in iter(lambda: stream.read(1 << 20), b''))
+    return None
+
+
+def node_of(cob_id: int) -> int | None:
+    """The node id in a predefined-connection COB-ID (EMCY, PDOs, SDOs, NMT error control)."""
+    function = cob_id & 0x780
+    node = cob_id & 0x7F
+    return node if node and 0x080 <= function <= 0x700 and function != 0x100 else None
+
+
+def import_trace(source: Path, out: Path, config_path: Path | None = None, progress: bool = True,
+                 strict: bool = True) -> ImportReport:
+    """Write ``source`` as a bag at ``out``; nothing is left at ``out`` if the source is bad."""
+    recording = open_recording(Path(source), strict)
+    config_yaml, files = recording.config_yaml, dict(recording.files)
+    node_ids: set[int] = set()
+    if config_path is not None:
+        config = load_bus_config(config_path)
+        config_yaml, files = Path(config_path).read_text(encoding='utf-8'), config_files(config)
+        node_ids = {n.node_id for n in config.nodes}
+    seen: set[int] = set()
+    first = last = None
+    writer = BagWriter(Path(out), config_yaml=config_yaml, files=files)
+    try:
+        with tqdm(total=estimate_frames(recording), unit=' frames', disable=not progress, leave=False,
+                  desc=recording.path.name) as bar:
+            for count, msg in enumerate(recording.frames(), start=1):
+                writer.write_frame(msg, str(msg.channel if msg.channel is not None else ''))
+                if not msg.is_extended_id and (node := node_of(msg.arbitration_id)) is not None:
+                    seen.add(node)
+                first = msg.timestamp if first is None else first
+                last = msg.timestamp
+                if count % 4096 == 0:
+                    bar.update(4096)
+        writer.close()
+    except BaseException:
+        writer.close()
+        shutil.rmtree(writer.path, ignore_errors=True)
+        raise
+    warnings = []
+    if node_ids and not node_ids & seen:
+        warnings.append(f'none of the config\'s nodes ({", ".join(map(str, sorted(node_ids)))}) appears in the '
+                        f'trace (it has {", ".join(map(str, sorted(seen))) or "no node traffic"}): wrong config?')
+    if recording.skipped:
+        warnings.append(f'{len(recording.skipped)} unreadable line(s) skipped, the first: {recording.skipped[0]}')
+    if writer.frames == 0:
+        warnings.append('the trace holds no frames')
+    return ImportReport(recording.path, recording.format, writer.path, writer.frames,
+                        (last - first) if first is not None and last is not None else 0.0, tuple(sorted(seen)),
+                        tuple(warnings))
+

@@ -1,0 +1,36 @@
+"""Passive recording: the frames of a bus the bridge does not own (its master is a PLC).
+
+Only ``recv``: no canopen Network, so nothing is ever sent (no SYNC, NMT, SDO or heartbeat).
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+import can
+
+from drive_bridge.bag.recorder import Recorder, RecorderStats
+
+RECV_TIMEOUT = 0.1  # s: how soon a stop request is seen
+
+
+def record_passive(bus: can.BusABC, recorder: Recorder, stop: threading.Event, *, duration: float = 0.0,
+                   report: Callable[[RecorderStats], None] | None = None, report_period: float = 0.5) -> RecorderStats:
+    """Queue every received frame until ``stop`` is set (or ``duration`` s passed), then close the bag."""
+    deadline = time.monotonic() + duration if duration > 0 else float('inf')
+    next_report = time.monotonic() + report_period
+    try:
+        while not stop.is_set():
+            msg = bus.recv(RECV_TIMEOUT)
+            if msg is not None:
+                recorder.on_frame(msg)
+            now = time.monotonic()
+            if now >= deadline:
+                break
+            if report is not None and now >= next_report:
+                report(recorder.stats())
+                next_report = now + report_period
+    finally:
+        stats = recorder.stop()
+    return stats

@@ -1,0 +1,29 @@
+"""``drive-bridge import``: a vendor trace (or another bag) into the bag layout the bridge records."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+NAME = 'import'
+HELP = 'convert a CAN trace (trc, asc, blf, candump log, csv, IXXAT MiniMon...) to a rosbag2 MCAP bag'
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('trace', type=Path, help='the trace (any format python-can reads, or IXXAT MiniMon)')
+    parser.add_argument('-o', '--output', type=Path, required=True, help='bag directory to create')
+    parser.add_argument('--config', type=Path, help='bus configuration YAML to store with the frames')
+    parser.add_argument('--skip-bad-lines', action='store_true',
+                        help='skip lines the reader cannot parse (with a warning) instead of failing')
+    parser.add_argument('-q', '--quiet', action='store_true', help='no progress bar')
+
+
+def run(args: argparse.Namespace) -> int:
+    from drive_bridge.bag.importer import import_trace
+
+    report = import_trace(args.trace, args.output, args.config, progress=not args.quiet,
+                          strict=not args.skip_bad_lines)
+    print(report.summary())
+    for warning in report.warnings:
+        print(f'drive-bridge import: warning: {warning}', file=sys.stderr)
+    return 0

@@ -1,0 +1,108 @@
+"""A bridge killed (SIGKILL) mid-recording loses at most the open split: the closed splits are a
+readable bag as they are, and ``drive-bridge recover`` makes the open one readable too."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+from mcap.records import Message
+from mcap.stream_reader import StreamReader
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import Reader
+
+from drive_bridge.bag.errors import BagError
+from drive_bridge.bag.recover import recover, summary_problem
+from drive_bridge.bag.source import open_recording
+from drive_bridge.bag.typestore import typestore
+from drive_bridge.cli.main import main
+from rostools import wait_for
+
+ROOT = Path(__file__).resolve().parents[1]
+TRACES = next((p / 'shared' / 'realdata' / 'traces' for p in ROOT.parents if (p / 'shared').is_dir()), ROOT)
+
+
+def listed(bag: Path) -> list[str]:
+    meta = bag / 'metadata.yaml'
+    if not meta.exists():
+        return []
+    return yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']['relative_file_paths']
+
+
+def messages_on_disk(split: Path) -> int:
+    count = 0
+    try:
+        with split.open('rb') as stream:
+            for record in StreamReader(stream).records:
+                count += isinstance(record, Message)
+    except Exception:  # the torn tail of an open split
+        pass
+    return count
+
+
+def test_killed_bridge_leaves_closed_splits_and_recover_reads_the_open_one(tmp_path: Path) -> None:
+    env = {**os.environ, 'PYTHONPATH': str(ROOT), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'ROS_DOMAIN_ID': str(101 + os.getpid() % 100)}
+    process = subprocess.Popen(
+        [sys.executable, '-c', 'from drive_bridge.cli.bridge import bridge_main; bridge_main()', '--ros-args',
+         '-p', 'record.start:=true', '-p', f'record.path:={tmp_path}', '-p', 'record.split_seconds:=1.5'],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        def open_split_has_data() -> Path | None:
+            bags = list(tmp_path.iterdir())
+            if not bags or not listed(bags[0]):
+                return None
+            bag = bags[0]
+            open_splits = [p for p in bag.glob('*.mcap') if p.name not in listed(bag)]
+            return bag if open_splits and messages_on_disk(open_splits[0]) > 0 else None
+        bag = wait_for(open_split_has_data, 30, 'a closed split and data in the open one')
+    finally:
+        process.send_signal(signal.SIGKILL)
+        process.wait(10)
+    closed = listed(bag)
+    open_split, = [p for p in bag.glob('*.mcap') if p.name not in closed]
+    assert all(summary_problem(bag / name) == '' for name in closed)
+    assert 'not closed' in summary_problem(open_split)
+    with pytest.raises(Exception), Reader(open_split) as reader:  # noqa: B017  rosbags cannot read it as it is
+        list(reader.messages())
+    before = sum(1 for _ in open_recording(bag).frames())  # the closed splits, as they are
+    assert before > 1000
+
+    assert main(['recover', str(bag)]) == 0
+    assert listed(bag)[-1] == open_split.name and summary_problem(open_split) == ''
+    with AnyReader([bag], default_typestore=typestore()) as reader:
+        frames = sum(c.msgcount for c in reader.connections if c.topic == '/can/frames')
+        assert sum(1 for _ in reader.messages()) == reader.message_count
+    after = sum(1 for _ in open_recording(bag).frames())
+    assert after == frames > before
+    recording = open_recording(open_split)  # the recovered split alone still has the config and EDS
+    assert recording.config_yaml and recording.files
+
+
+def test_recover_refuses_what_is_not_a_bag(tmp_path: Path) -> None:
+    with pytest.raises(BagError, match='no such file'):
+        recover(tmp_path / 'nothing')
+    with pytest.raises(BagError, match='no .mcap split'):
+        recover(tmp_path)
+    (tmp_path / 'fake.mcap').write_bytes(b'not an mcap file at all')
+    with pytest.raises(BagError, match='not an MCAP file'):
+        recover(tmp_path / 'fake.mcap')
+    (tmp_path / 'notes.txt').write_text('x')
+    with pytest.raises(BagError, match='not a rosbag2 MCAP bag'):
+        recover(tmp_path / 'notes.txt')
+
+
+@pytest.mark.skipif(not TRACES.is_dir(), reason='real traces not available')
+def test_recover_leaves_a_complete_bag_as_it_is(tmp_path: Path) -> None:
+    assert main(['import', str(TRACES / 'pcan2.trc'), '-o', str(tmp_path / 'bag'), '-q']) == 0
+    split, = (tmp_path / 'bag').glob('*.mcap')
+    mtime = split.stat().st_mtime_ns
+    time.sleep(0.01)
+    report = recover(tmp_path / 'bag')
+    assert [s.rewritten for s in report.splits] == [False] and split.stat().st_mtime_ns == mtime
+    assert sum(1 for _ in open_recording(tmp_path / 'bag').frames()) == 6968
