@@ -10,9 +10,11 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import can
 import pytest
 from diagnosetools import CONFIG_YAML, NODE, PERIOD, FaultRecording, record_faults
 
+from bench.diagnose import synthetic
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
 
@@ -126,3 +128,19 @@ def test_check_gives_the_exit_code(recording: FaultRecording, tmp_path: Path) ->
         'ros2_canopen_issue331_cia402_velocity_enable_excerpt.log'
     rc, out = run(str(clean), '-o', str(tmp_path / 'c.html'), '--check')
     assert rc == 0 and 'findings: 0 errors' in out
+
+
+def test_bus_load_over_the_bit_rate(tmp_path: Path) -> None:
+    """4 drives at 1 kHz (SYNC, RPDO and TPDO of 6 bytes each): about 810 kbit/s nominal."""
+    path = tmp_path / 'busy.log'
+    writer = can.CanutilsLogWriter(str(path), channel='can0')
+    for msg in synthetic(20_000):
+        writer.on_message_received(msg)
+    writer.stop()
+    data = report(path, tmp_path, '--bitrate', '1000000')
+    load = one(data['findings'], 'bus-load')
+    assert load['what'].startswith('bus load 81% of 1000 kbit/s') and 'queue' in load['cause']
+    assert 0.80 < data['busload']['peak_load'] < 0.82
+    assert data['busload']['peak_load_worst_stuffing'] > data['busload']['peak_load']
+    quiet = report(path, tmp_path, '--bitrate', '2000000')
+    assert not [f for f in quiet['findings'] if f['kind'] == 'bus-load']

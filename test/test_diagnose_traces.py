@@ -73,6 +73,17 @@ def inspect(path: Path) -> dict[str, Any]:
     return out
 
 
+def rounded(value: Any) -> Any:
+    """Floats to 4 decimals, in nested JSON data."""
+    if isinstance(value, float):
+        return round(value, 4)
+    if isinstance(value, dict):
+        return {k: rounded(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [rounded(v) for v in value]
+    return value
+
+
 class _Html(HTMLParser):
     def __init__(self) -> None:
         super().__init__()
@@ -215,3 +226,22 @@ def test_guarding_toggle_and_replies(reports: dict[str, tuple[dict[str, Any], st
     guarding = nodes[10]['guarding']
     assert guarding['requests'] == 187 and guarding['replies'] + guarding['unanswered'] <= 187
     assert guarding['period_s'] is not None and 0.1 < guarding['period_s'] < 5
+
+
+@pytest.mark.parametrize('name', ['ixxat1.trc', 'pcan2.trc'])
+def test_an_imported_trace_diagnoses_the_same(name: str, tmp_path: Path,
+                                              reports: dict[str, tuple[dict[str, Any], str, str]]) -> None:
+    """`drive-bridge import` to a bag, then diagnose the bag: the same nodes, events and findings."""
+    bag = tmp_path / 'bag'
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert main(['import', str(TRACES / name), '-o', str(bag), '-q']) == 0
+        assert main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--json', str(tmp_path / 'r.json'),
+                     '--no-progress']) == 0
+    data = json.loads((tmp_path / 'r.json').read_text())
+    trace = reports[name][0]
+    assert data['recording']['format'] == 'rosbag2-mcap'
+    for key in ('nodes', 'nmt', 'emcy', 'cia402', 'pdo'):  # bag stamps are ns: times to 0.1 ms
+        assert rounded(data[key]) == rounded(trace[key]), key
+    assert rounded(data['sdo']['transactions']) == rounded(trace['sdo']['transactions'])
+    assert [(f['kind'], f['node'], f['what']) for f in data['findings']] == \
+        [(f['kind'], f['node'], f['what']) for f in trace['findings']]

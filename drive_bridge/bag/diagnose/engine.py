@@ -89,7 +89,7 @@ class Engine:
         d.cia402 = Cia402Axes(ctx, d.emcy)
         d.following = FollowingError(ctx)
         d.sync = SyncStats(ctx)
-        d.busload = BusLoad(ctx.bitrate)
+        d.busload = BusLoad(ctx)
         self.sinks = {0x6040: d.cia402.controlword, 0x6041: d.cia402.statusword,
                       0x6062: d.following.position_demand, 0x6064: d.following.actual,
                       0x607A: d.following.target_position}
@@ -220,6 +220,7 @@ class Engine:
         d.cia402.finish(end)
         d.following.finish()
         d.sync.finish()
+        d.busload.finish()
         d.pdo.finish()
         self._check_config()
 

@@ -15,6 +15,7 @@ from drive_bridge.bag.diagnose.names import is_signed, object_label
 from drive_bridge.bag.diagnose.sdo import SdoTransaction
 
 AxisSink = Callable[[float, int, int, int], None]  # (t, node, axis slot, value)
+CYCLIC_S = 0.5  # a PDO sent at least this often is cyclic: its silences are findings (not event PDOs')
 SILENCE_FACTOR = 5.0  # a PDO silent this many mean intervals (and >= 0.1 s) is a gap
 COMM = {0x1400: 'RPDO', 0x1800: 'TPDO'}
 
@@ -210,7 +211,7 @@ class Pdos:
             if stats.count < 10:
                 continue
             mean = (stats.last - stats.first) / (stats.count - 1)
-            if stats.max_gap > max(SILENCE_FACTOR * mean, 0.1):
+            if mean <= CYCLIC_S and stats.max_gap > max(SILENCE_FACTOR * mean, 0.1):
                 channel = self.by_cob.get(cob)
                 node = channel.node if channel else (cob & 0x7F)
                 what = channel.label() if channel else f'PDO 0x{cob:03X}'
