@@ -139,4 +139,5 @@ nodes:
     heartbeat_producer: 50
     axes:
       - joint: wrist_joint
+        scaling: {counts_per_revolution: 65536}
 """

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import math
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -117,6 +118,10 @@ def test_a_bag_with_its_config_names_the_joint(recording: FaultRecording, tmp_pa
     assert data['inputs']['config'].startswith('stored in')
     assert [(n['node'], n['name'], n['family']) for n in data['nodes']] == [(NODE, 'wrist_drive', 'generic_402')]
     check_faults(data, recording, joint='wrist_joint')
+    # the drive holds position 0 against the target 12,345 counts: the error in rad from the scaling
+    following = data['following_error'][0]
+    assert following['joint'] == 'wrist_joint' and following['max_abs_counts'] == 12_345
+    assert following['max_abs_si'] == pytest.approx(12_345 * 2 * math.pi / 65536)
 
 
 def test_check_gives_the_exit_code(recording: FaultRecording, tmp_path: Path) -> None:

@@ -52,20 +52,32 @@ class FollowingError:
 
     def finish(self) -> None:
         for (node, slot), axis in self.axes.items():
-            if not axis.errors or axis.window is None or axis.window in (0, 0xFFFFFFFF):
+            if not axis.errors:
                 continue
             worst = max(range(len(axis.errors)), key=lambda i: abs(axis.errors[i]))
-            if abs(axis.errors[worst]) > axis.window:
+            error = axis.errors[worst]
+            info = self.ctx.nodes.get(node)
+            factor = info.position_factor.get(slot) if info else None
+            limit = info.following_limit.get(slot) if info else None
+            if axis.window not in (None, 0, 0xFFFFFFFF) and abs(error) > (axis.window or 0):
                 self.ctx.add(Severity.WARNING, axis.times[worst] + self.ctx.t0, node,
-                             f'axis {slot + 1}: following error {axis.errors[worst]} counts exceeds the window '
+                             f'axis {slot + 1}: following error {error} counts exceeds the window '
                              f'0x6065 = {axis.window}', 'the axis cannot follow the demand: tuning, load or limits',
                              'following-error', slot=slot)
+            elif factor and limit and abs(error * factor) > limit:
+                self.ctx.add(Severity.WARNING, axis.times[worst] + self.ctx.t0, node,
+                             f'axis {slot + 1}: following error {abs(error * factor):.4g} exceeds the configured '
+                             f'{limit:.4g} (position_loop.following_error)',
+                             'the axis cannot follow the demand: tuning, load or limits', 'following-error', slot=slot)
 
     def to_json(self) -> list[dict[str, Any]]:
         out = []
         for (node, slot), axis in sorted(self.axes.items()):
             if axis.errors:
+                info = self.ctx.nodes.get(node)
+                factor = info.position_factor.get(slot) if info else None
+                worst = max(abs(e) for e in axis.errors)
                 out.append({'node': node, 'slot': slot, 'joint': self.ctx.joint(node, slot),
                             'samples': len(axis.errors), 'demand_object': f'0x{axis.demand_index:04X}',
-                            'max_abs_counts': max(abs(e) for e in axis.errors)})
+                            'max_abs_counts': worst, 'max_abs_si': worst * abs(factor) if factor else None})
         return out

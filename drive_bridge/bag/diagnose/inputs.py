@@ -82,8 +82,12 @@ def context_for(inputs: DiagnoseInputs) -> Context:
         for node in config.nodes:
             ctx.nodes[node.node_id] = NodeInfo(
                 node.node_id, node.name, get_family(node.family), node.od,
-                {axis.slot: axis.joint for axis in node.axes},
-                node.heartbeat_producer_ms if not node.guarding else 0, node.guard_time_ms)
+                joints={axis.slot: axis.joint for axis in node.axes},
+                heartbeat_ms=node.heartbeat_producer_ms if not node.guarding else 0,
+                guard_time_ms=node.guard_time_ms,
+                position_factor={axis.slot: axis.scaling.position_factor for axis in node.axes},
+                following_limit={axis.slot: axis.position_loop.following_error for axis in node.axes
+                                 if axis.position_loop.following_error})
     for node_id, path in inputs.eds.items():
         try:
             od = load_object_dictionary(path, node_id)

@@ -54,6 +54,8 @@ class NodeInfo:
     family: DriveFamily | None = None
     od: ObjectDictionary | None = None
     joints: dict[int, str] = field(default_factory=dict)  # axis slot -> joint
+    position_factor: dict[int, float] = field(default_factory=dict)  # axis slot -> SI per count
+    following_limit: dict[int, float] = field(default_factory=dict)  # axis slot -> SI (position loop)
     heartbeat_ms: int = 0  # the configured producer time
     guard_time_ms: int = 0
 
