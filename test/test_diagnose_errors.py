@@ -96,3 +96,17 @@ def test_eds_names_objects(tmp_path: Path) -> None:
 
 def test_unwritable_report(tmp_path: Path) -> None:
     assert 'cannot write' in error_of(str(TRACE), '-o', str(tmp_path / 'no' / 'such' / 'dir' / 'r.html'))
+
+
+def test_error_frames_are_a_finding(tmp_path: Path) -> None:
+    """Bus-error frames as candump logs them (python-can's reader knows class 0x80 only)."""
+    path = tmp_path / 'errors.log'
+    path.write_text('(1.000000) can0 705#05\n(1.500000) can0 20000080#0000000000000000\n'
+                    '(1.600000) can0 20000080#0000000000000000\n(2.000000) can0 705#05\n')
+    js = tmp_path / 'r.json'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
+    data = json.loads(js.read_text())
+    assert data['recording']['error_frames'] == 2
+    [finding] = [f for f in data['findings'] if f['kind'] == 'error-frames']
+    assert finding['what'] == '2 CAN error frame(s)' and finding['time'] == 0.5

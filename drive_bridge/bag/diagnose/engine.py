@@ -45,6 +45,7 @@ class Diagnosis:
     error_frames: int = 0
     extended_frames: int = 0
     remote_frames: int = 0
+    first_error: float = 0.0  # time of the first error frame
     counts: list[int] = field(default_factory=lambda: [0] * 2048)  # data frames per COB-ID
     remote_counts: list[int] = field(default_factory=lambda: [0] * 2048)  # RTR frames per COB-ID
     nmt: NmtTimeline = field(init=False)
@@ -177,6 +178,8 @@ class Engine:
                 t0 = d.t0 = d.ctx.t0 = t
             n += 1
             if msg.is_error_frame:
+                if not errors:
+                    d.first_error = t
                 errors += 1
                 continue
             dlc = msg.dlc if msg.dlc <= 8 else 8
@@ -223,6 +226,10 @@ class Engine:
         d.busload.finish()
         d.pdo.finish()
         self._check_config()
+        if d.error_frames:
+            d.ctx.add(Severity.WARNING, d.first_error, None, f'{d.error_frames} CAN error frame(s)',
+                      'bus errors: termination, wiring, a wrong bit rate on one node, or a faulty node',
+                      'error-frames')
 
     def _check_config(self) -> None:
         d = self.d
