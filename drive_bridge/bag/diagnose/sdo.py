@@ -25,6 +25,7 @@ class SdoTransaction:
     abort: int | None = None
     segmented: bool = False
     block: bool = False
+    phase: str = ''  # block transfer: init, init-resp, data, last, end, end-sent, end-resp
     status: str = 'open'  # ok / abort / no response / open
     last_segment: bool = False  # download: the client sent its last segment
 
@@ -59,13 +60,16 @@ class SdoLog:
         b0 = data[0]
         ccs = b0 >> 5
         txn = self._open.get(node)
+        if txn is not None and txn.phase and b0 != 0x80 and self._block_request(txn, t, data):
+            return
         if ccs in (1, 2, 5, 6):  # initiate download / upload / block upload / block download
             if txn is not None:
                 self._close(txn, 'no response')
             if len(data) < 4:
                 return
             txn = SdoTransaction(node, data[1] | data[2] << 8, data[3], ccs in (1, 6), t)
-            txn.block = ccs in (5, 6)
+            if ccs in (5, 6):
+                txn.block, txn.phase = True, 'init'
             if ccs == 1 and b0 & 0x02:
                 n = (b0 >> 2) & 3 if b0 & 0x01 else 0
                 txn.data += data[4:8 - n]
@@ -97,12 +101,11 @@ class SdoLog:
         b0 = data[0]
         scs = b0 >> 5
         txn.t_response = t
-        if scs == 4:
+        if txn.block and b0 != 0x80:  # sub-block segments (0x81..0xFF with the last) are no abort
+            self._block_response(txn, data)
+        elif scs == 4:
             txn.abort = _u32(data, 4)
             self._close(txn, 'abort')
-        elif txn.block:
-            if scs in (5, 6) and b0 & 0x03 == 1:  # block end
-                self._close(txn, 'ok')
         elif scs == 3 or scs == 1:  # initiate download response
             if txn.last_segment:
                 self._close(txn, 'ok')
@@ -118,6 +121,52 @@ class SdoLog:
             txn.data += data[1:8 - n]
             if b0 & 0x01:
                 self._close(txn, 'ok')
+
+    # -- block transfers (CiA 301 §7.2.4.3.9-16): sub-block segments carry a sequence number --
+    def _block_request(self, txn: SdoTransaction, t: float, data: bytes | bytearray) -> bool:
+        """A client frame of an open block transfer; False: not part of it (a new request)."""
+        b0, phase = data[0], txn.phase
+        if txn.write:
+            if phase == 'data':
+                txn.data += data[1:8]
+                if b0 & 0x80:
+                    txn.phase = 'last'
+                return True
+            if phase == 'end' and b0 & 0xE3 == 0xC1:
+                _trim(txn, (b0 >> 2) & 7)
+                txn.phase = 'end-sent'
+                return True
+            return False
+        if phase == 'init-resp' and b0 == 0xA3:  # start upload
+            txn.phase = 'data'
+            return True
+        if phase in ('data', 'last') and b0 & 0xE3 == 0xA2:  # block acknowledged
+            txn.phase = 'end' if phase == 'last' else 'data'
+            return True
+        if phase == 'end-resp' and b0 & 0xE3 == 0xA1:  # end confirmed
+            txn.t_response = t
+            self._close(txn, 'ok')
+            return True
+        return False
+
+    def _block_response(self, txn: SdoTransaction, data: bytes | bytearray) -> None:
+        b0, phase = data[0], txn.phase
+        if txn.write:
+            if phase == 'init' and b0 & 0xE3 == 0xA0:
+                txn.phase = 'data'
+            elif phase in ('data', 'last') and b0 & 0xE3 == 0xA2:
+                txn.phase = 'end' if phase == 'last' else 'data'
+            elif phase == 'end-sent' and b0 & 0xE3 == 0xA1:
+                self._close(txn, 'ok')
+        elif phase == 'init' and b0 & 0xE1 == 0xC0:
+            txn.phase = 'init-resp'
+        elif phase == 'data':
+            txn.data += data[1:8]
+            if b0 & 0x80:
+                txn.phase = 'last'
+        elif phase == 'end' and b0 & 0xE3 == 0xC1:
+            _trim(txn, (b0 >> 2) & 7)
+            txn.phase = 'end-resp'
 
     # -- results ---------------------------------------------------------------------------
     def _close(self, txn: SdoTransaction, status: str, by_client: bool = False) -> None:
@@ -148,6 +197,12 @@ class SdoLog:
                 self._close(txn, 'no response')
 
 
+def _trim(txn: SdoTransaction, unused: int) -> None:
+    """The last segment's ``unused`` bytes carry no data (from the end frame)."""
+    if unused:
+        del txn.data[-unused:]
+
+
 def axis_slot(index: int) -> int:
     return (index - 0x6000) // 0x800 if 0x6000 <= index < 0xA000 else 0
 
@@ -160,8 +215,6 @@ def ctx_label(ctx: Context, txn: SdoTransaction) -> str:
 
 
 def format_value(txn: SdoTransaction) -> str:
-    if txn.block and not txn.data:
-        return '(block transfer)'
     value = txn.value
     if value is not None and len(txn.data) <= 4:
         return f'0x{value:0{2 * len(txn.data)}X} ({value})'
