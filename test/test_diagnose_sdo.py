@@ -36,3 +36,19 @@ def test_block_transfers_are_paired(tmp_path: Path) -> None:
     identity = data['nodes'][0]['identity']
     assert identity['device name'] == 'drive-test' and identity['profile'] == 'CiA 402 drive'
     assert not data['findings']
+
+
+def test_a_mode_the_drive_does_not_take(tmp_path: Path) -> None:
+    """0x6060 = 8 (csp) written and confirmed, 0x6061 still 3 (pv) 1.5 s later: a finding."""
+    frames = [(1.0, 0x605, '2F60600008000000'), (1.001, 0x585, '6060600000000000'),
+              (2.5, 0x605, '4061600000000000'), (2.501, 0x585, '4F61600003000000')]
+    path = tmp_path / 'mode.log'
+    path.write_text(''.join(f'({t:.6f}) can0 {cob:03X}#{data}\n' for t, cob, data in frames))
+    js = tmp_path / 'r.json'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
+    data = json.loads(js.read_text())
+    [finding] = data['findings']
+    assert finding['kind'] == 'cia402-mode' and finding['node'] == 5 and finding['time'] == 0.001  # confirmed
+    assert finding['what'] == 'axis 1: mode of operation csp (8) requested, the drive shows pv (3)'
+    assert data['cia402'][0]['modes'] == [{'time': 1.501, 'mode': 'pv'}]

@@ -213,6 +213,7 @@ def test_cia402_from_the_predefined_tpdo1(reports: dict[str, tuple[dict[str, Any
     data = reports['ros2_canopen_issue331_cia402_velocity_enable_excerpt.log'][0]
     axes = data['cia402']
     assert [(a['node'], a['state']) for a in axes] == [(3, 'operation enabled')]
+    assert [m['mode'] for m in axes[0]['modes']] == ['pv']  # 0x6061 read back = 3, as written
     pdo = {row['cob_id']: row for row in data['pdo']}['0x183']
     assert pdo['mapping_source'] == 'CiA 402 predefined'
     assert pdo['last_values'] == {'0x6041:0 Statusword': 0x0237}

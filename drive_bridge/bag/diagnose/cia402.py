@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 from drive_bridge.bag.diagnose.emcy import EmcyTimeline
 from drive_bridge.bag.diagnose.model import Context, Severity
+from drive_bridge.cia402.modes import mode_name
 from drive_bridge.cia402.statemachine import (
     CMD_ENABLE_OPERATION,
     CMD_SHUTDOWN,
@@ -15,6 +16,7 @@ from drive_bridge.cia402.statemachine import (
     state_from_statusword,
 )
 
+MODE_SWITCH_S = 1.0  # as Timeouts.mode_switch
 STATE_SWITCH_S = 1.0  # as Timeouts.state_switch: a command not followed this long did not work
 _REACHABLE = {  # CiA 402-2 §8.1 transitions a command can take from a state
     CMD_SHUTDOWN: {State.SWITCH_ON_DISABLED, State.SWITCHED_ON, State.OPERATION_ENABLED,
@@ -61,6 +63,9 @@ class AxisTrack:
     pending: Command | None = None
     failed: int = 0
     commands: int = 0
+    mode_requested: tuple[float, int] | None = None  # (time, 0x6060) not yet echoed by 0x6061
+    mode_display: int | None = None
+    modes: list[tuple[float, int]] = field(default_factory=list)  # 0x6061 changes, relative t
 
 
 class Cia402Axes:
@@ -137,7 +142,46 @@ class Cia402Axes:
                      f'axis {axis.slot + 1}: controlword 0x{command.controlword:04X} ({command.name}) did not lead '
                      f'to {wanted}; the drive stayed in {axis.state.label}', cause, 'cia402-command', slot=axis.slot)
 
+    def mode(self, t: float, node: int, slot: int, value: int) -> None:
+        """0x6060 written: the drive should echo it in 0x6061 within the mode-switch time."""
+        axis = self.axes.get((node, slot)) or self._axis(node, slot)
+        self._check_mode(axis, t)
+        value = _signed8(value)
+        axis.mode_requested = None if value == axis.mode_display else (t, value)
+
+    def mode_display(self, t: float, node: int, slot: int, value: int) -> None:
+        axis = self.axes.get((node, slot)) or self._axis(node, slot)
+        value = _signed8(value)
+        if value != axis.mode_display:
+            axis.mode_display = value
+            axis.modes.append((t - self.ctx.t0, value))
+        requested = axis.mode_requested
+        if requested is not None:
+            if requested[1] == value:
+                axis.mode_requested = None
+            else:
+                self._check_mode(axis, t)
+
+    def _check_mode(self, axis: AxisTrack, now: float) -> None:
+        requested = axis.mode_requested
+        if requested is None or now - requested[0] <= MODE_SWITCH_S or axis.mode_display is None:
+            return
+        axis.mode_requested = None
+        shown = axis.mode_display
+        self.ctx.add(Severity.WARNING, requested[0], axis.node,
+                     f'axis {axis.slot + 1}: mode of operation {mode_name(requested[1])} ({requested[1]}) requested, '
+                     f'the drive shows {mode_name(shown)} ({shown})',
+                     'the drive does not support the mode, or refuses to switch in its present state',
+                     'cia402-mode', slot=axis.slot)
+
     def finish(self, end: float) -> None:
         for axis in self.axes.values():
+            self._check_mode(axis, end)
             if axis.pending is not None and axis.pending.observed and end - axis.pending.time > STATE_SWITCH_S:
                 self._failed(axis, axis.pending)
+
+
+def _signed8(value: int) -> int:
+    """0x6060 / 0x6061 are INTEGER8 (manufacturer modes are negative)."""
+    value &= 0xFF
+    return value - 0x100 if value & 0x80 else value

@@ -92,6 +92,7 @@ class Engine:
         d.sync = SyncStats(ctx)
         d.busload = BusLoad(ctx)
         self.sinks = {0x6040: d.cia402.controlword, 0x6041: d.cia402.statusword,
+                      0x6060: d.cia402.mode, 0x6061: d.cia402.mode_display,
                       0x6062: d.following.position_demand, 0x6064: d.following.actual,
                       0x607A: d.following.target_position}
         d.pdo = Pdos(ctx, d.identities, self.sinks)

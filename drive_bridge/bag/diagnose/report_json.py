@@ -8,6 +8,7 @@ from drive_bridge.bag.diagnose.engine import Diagnosis
 from drive_bridge.bag.diagnose.model import Severity
 from drive_bridge.bag.diagnose.names import object_label
 from drive_bridge.bag.diagnose.sdo import format_value
+from drive_bridge.cia402.modes import mode_name
 
 
 def start_time(d: Diagnosis) -> str | None:
@@ -79,6 +80,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
                   'joint': d.ctx.joint(r.node, r.event.slot or 0)} for r in d.emcy.records],
         'cia402': [{'node': a.node, 'slot': a.slot, 'joint': d.ctx.joint(a.node, a.slot),
                     'state': a.state.label, 'commands': a.commands, 'commands_not_followed': a.failed,
+                    'modes': [{'time': round(t, 6), 'mode': mode_name(m)} for t, m in a.modes],
                     'transitions': [{'time': round(t, 6), 'from': f.label, 'to': s.label} for t, f, s in a.transitions]}
                    for a in sorted(d.cia402.axes.values(), key=lambda a: (a.node, a.slot))],
         'sync': d.sync.to_json(),
