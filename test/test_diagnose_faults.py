@@ -80,6 +80,12 @@ def check_faults(data: dict[str, Any], rec: FaultRecording, joint: str | None) -
     restart = one(findings, 'unexpected-restart')
     assert abs(restart['time'] - at(rec, 'boot-up')) < TOLERANCE
 
+    # what came after each: the heartbeat came back; the fault was reset, the axis not enabled
+    # again (the recording stops the master after the reboot, before NMT start)
+    assert lost['outcome'] == 'recovered: heartbeat back'
+    assert emcy['outcome'].startswith('fault cleared at t=') and fault['outcome'] == emcy['outcome']
+    assert restart['outcome'] == rebooted['outcome'] == 'unresolved: not operational again in the recording'
+
     for f in (abort, emcy, fault, skipped, lost, rebooted, restart):
         assert f['node'] == NODE and f['joint'] == joint
     errors = {f['kind'] for f in findings if f['severity'] == 'error'}

@@ -182,6 +182,9 @@ def test_pcan3_findings(reports: dict[str, tuple[dict[str, Any], str, str]]) -> 
     # node 85 boots twice on its own (the master answers each with a reset node 1 ms later)
     restarts = [f for f in findings if f['kind'] == 'unexpected-restart']
     assert [(f['node'], round(f['time'], 1)) for f in restarts] == [(85, 350.7), (85, 402.5)]
+    assert [f['outcome'] for f in restarts] == ['recovered: operational again at t=357.877 s',
+                                                'recovered: operational again at t=409.727 s']
+    assert emcy[0]['outcome'] == 'unresolved at the end of the recording'  # no error-reset EMCY follows
     assert data['nmt']['commanded_boot_ups'] == 2
 
 

@@ -20,6 +20,7 @@ from drive_bridge.bag.diagnose.liveness import Liveness
 from drive_bridge.bag.diagnose.model import SEVERITY_ORDER, Context, Finding, Severity
 from drive_bridge.bag.diagnose.names import is_signed
 from drive_bridge.bag.diagnose.nmt import NmtTimeline
+from drive_bridge.bag.diagnose.outcomes import Outcomes
 from drive_bridge.bag.diagnose.pdo import Pdos
 from drive_bridge.bag.diagnose.sdo import SdoLog, SdoTransaction
 from drive_bridge.bag.diagnose.sync import SyncStats
@@ -231,6 +232,8 @@ class Engine:
             d.ctx.add(Severity.WARNING, d.first_error, None, f'{d.error_frames} CAN error frame(s)',
                       'bus errors: termination, wiring, a wrong bit rate on one node, or a faulty node',
                       'error-frames')
+        outcomes = Outcomes(d.nmt, d.emcy, d.cia402)
+        d.ctx.findings = [outcomes.annotate(f) for f in d.ctx.findings]
 
     def _check_config(self) -> None:
         d = self.d

@@ -32,17 +32,20 @@ class Finding:
     cause: str = ''
     joint: str | None = None
     kind: str = ''  # a short stable tag for tools: 'heartbeat-gap', 'sdo-abort', 'emcy', ...
+    outcome: str = ''  # errors: 'recovered: ...' / 'unresolved ...' (from what came after)
 
     def to_json(self) -> dict[str, Any]:
         return {'severity': self.severity.value, 'time': round(self.time, 6), 'node': self.node,
-                'joint': self.joint, 'kind': self.kind, 'what': self.what, 'cause': self.cause}
+                'joint': self.joint, 'kind': self.kind, 'what': self.what, 'cause': self.cause,
+                'outcome': self.outcome}
 
     def __str__(self) -> str:
         where = f'node {self.node}' if self.node is not None else 'bus'
         if self.joint:
             where += f' ({self.joint})'
         cause = f': {self.cause}' if self.cause else ''
-        return f'{self.severity.value.upper():7} t={self.time:9.3f} s  {where}: {self.what}{cause}'
+        outcome = f' [{self.outcome}]' if self.outcome else ''
+        return f'{self.severity.value.upper():7} t={self.time:9.3f} s  {where}: {self.what}{cause}{outcome}'
 
 
 @dataclass

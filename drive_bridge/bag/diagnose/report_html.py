@@ -79,7 +79,7 @@ def render(d: Diagnosis, data: dict[str, Any]) -> str:
         f'<p>{badges}</p>',
         '<table>' + ''.join(f'<tr><th>{escape(k)}</th><td>{escape(str(v))}</td></tr>' for k, v in facts)
         + '</table>',
-        _section('Findings', table(data['findings'], ['severity', 'time', 'node', 'joint', 'what', 'cause'],
+        _section('Findings', table(data['findings'], ['severity', 'time', 'node', 'joint', 'what', 'cause', 'outcome'],
                                    row_class='severity')),
         _section('Nodes', table([_node_row(n) for n in data['nodes']]),
                  _addressed(data['nodes_addressed_only']), _plot(plots.timeline, d)),
