@@ -92,6 +92,12 @@ def test_eds_names_objects(tmp_path: Path) -> None:
     assert any(o.startswith('0x60FF:0 ') for o in objects)
     node3 = next(n for n in data['nodes'] if n['node'] == 3)
     assert node3['identity']['vendor'] == 'Elmo Motion Control'
+    # TPDO1 as the DCF maps it (statusword, mode display, a timestamp: 7 bytes); the drive sends 2
+    tpdo1 = {row['cob_id']: row for row in data['pdo']}['0x183']
+    assert tpdo1['mapping_source'] == 'EDS default' and len(tpdo1['mapping']) == 3
+    assert tpdo1['last_values'] == {'0x6041:0 statusword': 0x0237}
+    [length] = [f for f in data['findings'] if f['kind'] == 'pdo-length']
+    assert length['what'] == 'TPDO1 of node 3 (0x183) carries 2 bytes, its mapping (EDS default) 7'
 
 
 def test_unwritable_report(tmp_path: Path) -> None:

@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from canopen.objectdictionary import ODArray, ODRecord
+from canopen.objectdictionary import ODArray, ODRecord, ODVariable
 
 from drive_bridge.bag.diagnose.identity import Identities
 from drive_bridge.bag.diagnose.model import Context, Severity
@@ -18,6 +18,12 @@ AxisSink = Callable[[float, int, int, int], None]  # (t, node, axis slot, value)
 CYCLIC_S = 0.5  # a PDO sent at least this often is cyclic: its silences are findings (not event PDOs')
 SILENCE_FACTOR = 5.0  # a PDO silent this many mean intervals (and >= 0.1 s) is a gap
 COMM = {0x1400: 'RPDO', 0x1800: 'TPDO'}
+
+
+def _stored(variable: ODVariable) -> int:
+    """A DCF's ParameterValue, else the EDS DefaultValue (0 when neither)."""
+    value = variable.value if variable.value is not None else variable.default
+    return int(value or 0)
 
 
 def default_cob(kind: str, number: int, node: int) -> int | None:
@@ -161,9 +167,9 @@ class Pdos:
             entries: tuple[tuple[int, int, int], ...] = ()
             if isinstance(record, (ODRecord, ODArray)):
                 try:
-                    count = int(record[0].default or 0)
+                    count = _stored(record[0])
                     entries = tuple((v >> 16, (v >> 8) & 0xFF, v & 0xFF)
-                                    for v in (int(record[s].default or 0) for s in range(1, count + 1)) if v)
+                                    for v in (_stored(record[s]) for s in range(1, count + 1)) if v)
                 except (KeyError, TypeError, ValueError):
                     entries = ()
                 if entries:
@@ -208,6 +214,16 @@ class Pdos:
     # -- results ---------------------------------------------------------------------------
     def finish(self) -> None:
         for cob, stats in sorted(self.stats.items()):
+            channel = self.by_cob.get(cob)
+            if channel is not None and channel.entries:
+                mapped = (sum(bits for _i, _s, bits in channel.entries) + 7) // 8
+                if mapped != len(stats.data):
+                    self.ctx.add(Severity.WARNING, stats.last, channel.node,
+                                 f'{channel.label()} (0x{cob:03X}) carries {len(stats.data)} bytes, its mapping '
+                                 f'({channel.source}) {mapped}',
+                                 'the device maps other objects than assumed: give the config (or the mapping '
+                                 'SDO traffic) the device really uses' if channel.source != 'trace' else
+                                 'the device sends another length than it was configured to', 'pdo-length')
             if stats.count < 10:
                 continue
             mean = (stats.last - stats.first) / (stats.count - 1)
