@@ -1,4 +1,5 @@
-"""A recording of the simulated bus with injected faults, for the diagnosis tests.
+"""For the diagnosis tests: a recording of the simulated bus with injected faults, and a check
+that a report stands alone.
 
 A test-side master (SimBench) drives one simulated CiA 402 drive through configuration,
 enable, SYNC cycles, and five faults; a listen-only python-can bus on the same virtual channel
@@ -11,6 +12,7 @@ import struct
 import threading
 import time
 from dataclasses import dataclass, field
+from html.parser import HTMLParser
 from pathlib import Path
 
 import can
@@ -141,3 +143,30 @@ nodes:
       - joint: wrist_joint
         scaling: {counts_per_revolution: 65536}
 """
+
+
+class _Html(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.tags: list[str] = []
+        self.links: list[str] = []
+        self.text: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        self.tags.append(tag)
+        self.links += [v or '' for k, v in attrs if k in ('src', 'href', 'xlink:href')]
+
+    def handle_data(self, data: str) -> None:
+        self.text.append(data)
+
+
+def check_self_contained(html: str) -> _Html:
+    """The report parses, and references nothing outside itself (no script, no URL)."""
+    parser = _Html()
+    parser.feed(html)
+    parser.close()
+    assert 'http://' not in html and 'https://' not in html
+    assert 'script' not in parser.tags and 'link' not in parser.tags and 'img' not in parser.tags
+    assert all(link.startswith('#') for link in parser.links), parser.links
+    assert parser.tags.count('svg') >= 2  # the node timeline and the bus load at least
+    return parser

@@ -13,7 +13,7 @@ from typing import Any
 
 import can
 import pytest
-from diagnosetools import CONFIG_YAML, NODE, PERIOD, FaultRecording, record_faults
+from diagnosetools import CONFIG_YAML, NODE, PERIOD, FaultRecording, check_self_contained, record_faults
 
 from bench.diagnose import synthetic
 from drive_bridge.bag.writer import BagWriter
@@ -37,6 +37,7 @@ def run(*args: str) -> tuple[int, str]:
 def report(path: Path, tmp: Path, *extra: str) -> dict[str, Any]:
     rc, _ = run(str(path), '-o', str(tmp / 'r.html'), '--json', str(tmp / 'r.json'), *extra)
     assert rc == 0
+    check_self_contained((tmp / 'r.html').read_text(encoding='utf-8'))
     return json.loads((tmp / 'r.json').read_text())
 
 

@@ -14,12 +14,12 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-from html.parser import HTMLParser
 from pathlib import Path
 from typing import Any
 
 import can
 import pytest
+from diagnosetools import check_self_contained
 
 from configtools import REALDATA
 from drive_bridge.cli.main import main
@@ -82,33 +82,6 @@ def rounded(value: Any) -> Any:
     if isinstance(value, list):
         return [rounded(v) for v in value]
     return value
-
-
-class _Html(HTMLParser):
-    def __init__(self) -> None:
-        super().__init__()
-        self.tags: list[str] = []
-        self.links: list[str] = []
-        self.text: list[str] = []
-
-    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
-        self.tags.append(tag)
-        self.links += [v or '' for k, v in attrs if k in ('src', 'href', 'xlink:href')]
-
-    def handle_data(self, data: str) -> None:
-        self.text.append(data)
-
-
-def check_self_contained(html: str) -> _Html:
-    """The report parses, and references nothing outside itself (no script, no URL)."""
-    parser = _Html()
-    parser.feed(html)
-    parser.close()
-    assert 'http://' not in html and 'https://' not in html
-    assert 'script' not in parser.tags and 'link' not in parser.tags and 'img' not in parser.tags
-    assert all(link.startswith('#') for link in parser.links), parser.links
-    assert parser.tags.count('svg') >= 2  # the node timeline and the bus load at least
-    return parser
 
 
 @pytest.mark.parametrize('name', sorted(n for n in EXPECTED if not n.endswith('ixxat1.trc')))
