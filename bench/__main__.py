@@ -1,4 +1,4 @@
-"""``python -m bench [tracking|memory|recording] [options]``: run a benchmark and print its table."""
+"""``python -m bench [tracking|memory|recording|diagnose] [options]``: run a benchmark and print its table."""
 from __future__ import annotations
 
 import os
@@ -6,7 +6,8 @@ import sys
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-BENCHMARKS = {'tracking': 'bench.tracking', 'memory': 'bench.memory', 'recording': 'bench.recording'}
+BENCHMARKS = {'tracking': 'bench.tracking', 'memory': 'bench.memory', 'recording': 'bench.recording',
+              'diagnose': 'bench.diagnose'}
 
 
 def main() -> None:

@@ -23,6 +23,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ('info', 'info', 'topics, types, counts, duration and stored files of a bag or trace'),
     ('replay', 'replay', 'replay a bag or trace onto a CAN bus, or offline through the decoders into a bag'),
     ('scan', 'scan', 'find the nodes on a live bus and write a starter bus config'),
+    ('diagnose', 'diagnose', 'diagnose a bag or CAN trace: findings, timelines, SDO log, plots (HTML, JSON)'),
 )
 
 PROG = 'drive-bridge'

@@ -1,0 +1,92 @@
+"""What every analyser shares: findings, and the context the inputs give (names, joints, families)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+from canopen.objectdictionary import ObjectDictionary
+
+from drive_bridge.families.interface import DriveFamily
+
+
+class Severity(str, Enum):
+    """How bad a finding is; ``--check`` fails on ERROR."""
+
+    INFO = 'info'
+    WARNING = 'warning'
+    ERROR = 'error'
+
+
+SEVERITY_ORDER = {Severity.ERROR: 0, Severity.WARNING: 1, Severity.INFO: 2}
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One thing a person diagnosing the machine should know: what was seen and why, probably."""
+
+    severity: Severity
+    time: float  # s since the recording's first frame
+    node: int | None
+    what: str
+    cause: str = ''
+    joint: str | None = None
+    kind: str = ''  # a short stable tag for tools: 'heartbeat-gap', 'sdo-abort', 'emcy', ...
+    outcome: str = ''  # errors: 'recovered: ...' / 'unresolved ...' (from what came after)
+
+    def to_json(self) -> dict[str, Any]:
+        return {'severity': self.severity.value, 'time': round(self.time, 6), 'node': self.node,
+                'joint': self.joint, 'kind': self.kind, 'what': self.what, 'cause': self.cause,
+                'outcome': self.outcome}
+
+    def __str__(self) -> str:
+        where = f'node {self.node}' if self.node is not None else 'bus'
+        if self.joint:
+            where += f' ({self.joint})'
+        cause = f': {self.cause}' if self.cause else ''
+        outcome = f' [{self.outcome}]' if self.outcome else ''
+        return f'{self.severity.value.upper():7} t={self.time:9.3f} s  {where}: {self.what}{cause}{outcome}'
+
+
+@dataclass
+class NodeInfo:
+    """What the inputs (config or EDS) say about a node."""
+
+    node_id: int
+    name: str = ''
+    family: DriveFamily | None = None
+    od: ObjectDictionary | None = None
+    joints: dict[int, str] = field(default_factory=dict)  # axis slot -> joint
+    position_factor: dict[int, float] = field(default_factory=dict)  # axis slot -> SI per count
+    following_limit: dict[int, float] = field(default_factory=dict)  # axis slot -> SI (position loop)
+    heartbeat_ms: int = 0  # the configured producer time
+    guard_time_ms: int = 0
+
+
+@dataclass
+class Context:
+    """Inputs plus the time origin; analysers add findings here."""
+
+    nodes: dict[int, NodeInfo] = field(default_factory=dict)
+    bitrate: int | None = None
+    sync_period: float | None = None
+    t0: float = 0.0
+    findings: list[Finding] = field(default_factory=list)
+
+    def node(self, node_id: int) -> NodeInfo:
+        info = self.nodes.get(node_id)
+        if info is None:
+            info = self.nodes[node_id] = NodeInfo(node_id)
+        return info
+
+    def label(self, node_id: int) -> str:
+        info = self.nodes.get(node_id)
+        return f'node {node_id}' + (f' ({info.name})' if info and info.name else '')
+
+    def joint(self, node_id: int | None, slot: int = 0) -> str | None:
+        info = self.nodes.get(node_id) if node_id is not None else None
+        return info.joints.get(slot) if info else None
+
+    def add(self, severity: Severity, t: float, node: int | None, what: str, cause: str = '',
+            kind: str = '', slot: int = 0) -> None:
+        self.findings.append(Finding(severity, t - self.t0, node, what, cause, self.joint(node, slot), kind))

@@ -1,0 +1,85 @@
+"""Object names and data types: the node's EDS when given, else CiA 301/402 (the shipped
+generic CiA 402 EDS holds the standard objects), else the hex index."""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import canopen
+from canopen.objectdictionary import ObjectDictionary, ODVariable
+
+from drive_bridge.families import DATA_DIR
+
+_SIGNED = {0x02, 0x03, 0x04, 0x10, 0x15}  # INTEGER8/16/32/24/64
+_STANDARD_EXTRA = {0x1001: 'Error register', 0x1002: 'Manufacturer status register',
+                   0x1010: 'Store parameters', 0x1011: 'Restore default parameters',
+                   0x1012: 'COB-ID time stamp', 0x1029: 'Error behaviour', 0x1F51: 'Program control',
+                   0x6000: 'Read input 8-bit', 0x6200: 'Write output 8-bit', 0x6401: 'Read analogue input 16-bit',
+                   0x6411: 'Write analogue output 16-bit', 0x6502: 'Supported drive modes'}
+
+
+@lru_cache(maxsize=1)
+def standard_od() -> ObjectDictionary:
+    return canopen.import_od(str(DATA_DIR / 'generic402.eds'), 1)
+
+
+def _variable(od: ObjectDictionary | None, index: int, subindex: int) -> tuple[str, ODVariable | None]:
+    for table in (od, standard_od()):
+        if table is None or index not in table:
+            continue
+        obj = table[index]
+        if isinstance(obj, ODVariable):
+            return obj.name, obj
+        try:
+            sub = obj[subindex]
+        except KeyError:
+            return obj.name, None
+        return f'{obj.name}: {sub.name}' if sub.name != obj.name else obj.name, sub
+    return '', None
+
+
+def _standard_base(index: int) -> int:
+    """CiA 402 axis objects of slot n sit at +0x800 * n: name them by slot 0's object."""
+    return 0x6000 + ((index - 0x6000) & 0x7FF) if 0x6000 <= index < 0xA000 else index
+
+
+@lru_cache(maxsize=4096)
+def _name_cached(od_id: int, index: int, subindex: int) -> str:
+    od = _ODS.get(od_id)
+    name, _var = _variable(od, index, subindex)
+    if not name:
+        base = _standard_base(index)
+        name, _var = _variable(None, base, subindex)
+        name = name or _STANDARD_EXTRA.get(base, '')
+        if name and base != index:
+            name += f' (axis {(index - 0x6000) // 0x800 + 1})'
+    return name
+
+
+_ODS: dict[int, ObjectDictionary] = {}
+
+
+def object_name(od: ObjectDictionary | None, index: int, subindex: int) -> str:
+    """'Statusword', 'Identity object: Vendor-ID', ... ('' when nobody knows the object)."""
+    if od is not None:
+        _ODS[id(od)] = od
+    return _name_cached(id(od) if od is not None else 0, index, subindex)
+
+
+def object_label(od: ObjectDictionary | None, index: int, subindex: int) -> str:
+    name = object_name(od, index, subindex)
+    return f'0x{index:04X}:{subindex}' + (f' {name}' if name else '')
+
+
+def is_signed(od: ObjectDictionary | None, index: int, subindex: int) -> bool:
+    if od is not None:
+        _ODS[id(od)] = od
+    return _signed_cached(id(od) if od is not None else 0, index, subindex)
+
+
+@lru_cache(maxsize=4096)
+def _signed_cached(od_id: int, index: int, subindex: int) -> bool:
+    od = _ODS.get(od_id)
+    _name, var = _variable(od, index, subindex)
+    if var is None:
+        _name, var = _variable(None, _standard_base(index), subindex)
+    return var is not None and var.data_type in _SIGNED
