@@ -11,6 +11,7 @@ import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray
 from mcap.reader import make_reader
+from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
@@ -157,3 +158,24 @@ def test_bad_record_parameters_stop_the_node_with_the_reason(ros: RosHarness, tm
         BusNode(context=ros.context, parameter_overrides=[
             Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
             Parameter('record.start', value=True), Parameter('record.path', value=str(blocker / 'bags'))])
+
+
+def test_record_parameters_change_at_run_time_for_the_next_recording(ros: RosHarness, tmp_path: Path) -> None:
+    node = start_node(ros, tmp_path)
+    client = ros.node('param_client')
+    set_params = client.create_client(SetParameters, f'{NS}/set_parameters')
+    record = client.create_client(SetBool, f'{NS}/record')
+
+    def set_param(name: str, value: object) -> tuple[bool, str]:
+        result = ros.call(set_params, SetParameters.Request(
+            parameters=[Parameter(name, value=value).to_parameter_msg()])).results[0]
+        return result.successful, result.reason
+    try:
+        refused = set_param('record.split_seconds', -1.0)
+        assert refused == (False, 'parameter record.split_seconds must be >= 0, got -1.0')
+        assert set_param('record.path', str(tmp_path / 'other')) == (True, '')
+        started = ros.call(record, SetBool.Request(data=True))
+        assert started.success and started.message.startswith(str(tmp_path / 'other'))
+        assert ros.call(record, SetBool.Request(data=False)).success
+    finally:
+        node.close()

@@ -9,14 +9,17 @@ both on one timeline (their ``header.stamp`` as log time). Bus events go in as
 """
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from rcl_interfaces.msg import Log, ParameterDescriptor
+from rcl_interfaces.msg import Log, ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from std_srvs.srv import SetBool
 
@@ -56,8 +59,17 @@ def declare_record(node: Node, defaults: RecordConfig) -> RecordParameters:
             value = node.get_parameter(full).value
         else:
             value = node.declare_parameter(full, default, ParameterDescriptor(description=description)).value
-        values[name] = float(value) if isinstance(default, float) else value
-    params = RecordParameters(**values)
+        values[name] = value
+    return record_parameters(values)
+
+
+def record_parameters(values: dict[str, Any]) -> RecordParameters:
+    """Checked ``record.*`` values (BagError naming the parameter)."""
+    try:
+        params = RecordParameters(path=str(values['path']), split_size_mb=float(values['split_size_mb']),
+                                  split_seconds=float(values['split_seconds']), start=bool(values['start']))
+    except (TypeError, ValueError) as exc:
+        raise BagError(f'parameters record.*: {exc}') from None
     for name in ('split_size_mb', 'split_seconds'):
         if getattr(params, name) < 0:
             raise BagError(f'parameter record.{name} must be >= 0, got {getattr(params, name)}')
@@ -96,8 +108,27 @@ class RecordControl:
         self.last: RecorderStats | None = None
         self._events_topic = f'{node.get_fully_qualified_name()}/events'
         master.add_event_listener(self.on_event)
+        node.add_on_set_parameters_callback(self._on_set)
+        node.add_post_set_parameters_callback(self._on_applied)
         if self.params.start:
             self.start()
+
+    # -- record.* at run time: validated at once, used by the next recording --------------------------
+    def _updated(self, parameters: Sequence[Parameter]) -> RecordParameters:
+        values: dict[str, Any] = dataclasses.asdict(self.params)
+        values.update({p.name.removeprefix('record.'): p.value for p in parameters if p.name.startswith('record.')})
+        return record_parameters(values)
+
+    def _on_set(self, parameters: Sequence[Parameter]) -> SetParametersResult:
+        try:
+            self._updated(parameters)
+        except BagError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _on_applied(self, parameters: Sequence[Parameter]) -> None:
+        if any(p.name.startswith('record.') for p in parameters):
+            self.params = self._updated(parameters)
 
     def attach(self) -> None:
         """The service (once the node's other entities exist)."""
