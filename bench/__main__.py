@@ -1,4 +1,4 @@
-"""``python -m bench [tracking] [options]``: run a benchmark and print its table."""
+"""``python -m bench [tracking|transport|ros_cycle] [options]``: run a benchmark and print its table."""
 from __future__ import annotations
 
 import os
@@ -6,7 +6,7 @@ import sys
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-BENCHMARKS = {'tracking': 'bench.tracking'}
+BENCHMARKS = {'tracking': 'bench.tracking', 'transport': 'bench.transport', 'ros_cycle': 'bench.ros_cycle'}
 
 
 def main() -> None:
