@@ -16,6 +16,7 @@ from drive_bridge.config.pdo import check_cob_ids
 from drive_bridge.config.reader import Section, describe, suggestion
 from drive_bridge.config.yamlio import parse_yaml, read_yaml
 from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
+from drive_bridge.transport import INTERFACES
 
 _BUS_ARGS = ('interface', 'channel', 'bitrate')
 
@@ -58,7 +59,7 @@ def _bus(sec: Section | None, baudrate_kbit: int | None, issues: Issues) -> BusI
     if sec is None:
         return BusInterface(bitrate=from_master or BusInterface().bitrate)
     sec.check_keys(keys.BUS)
-    interface = sec.get_str('interface', 'virtual', choices=sorted(can.VALID_INTERFACES)) or 'virtual'
+    interface = sec.get_str('interface', 'virtual', choices=sorted({*can.VALID_INTERFACES, *INTERFACES})) or 'virtual'
     channel: str | int = 'drive_bridge'
     if 'channel' in sec:
         raw = sec.get('channel')
