@@ -10,6 +10,7 @@ from typing import Any
 import can
 
 from drive_bridge.config import keys
+from drive_bridge.config.busbudget import budget_verdict, bus_budget
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
@@ -164,7 +165,9 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     dcf_dir, multiplier = _options(root.section('options'), base_dir)
     master_sec = root.section('master')
     master, baudrate = _master(master_sec, multiplier)
-    bus = _bus(root.section('bus'), baudrate, issues)
+    bus_sec = root.section('bus')
+    bus = _bus(bus_sec, baudrate, issues)
+    allow_overload = bus_sec.get_bool('allow_overload', False) if bus_sec is not None else False
     context = NodeContext(issues, source, base_dir, dcf_dir, master, _defaults(root.section('defaults')))
     drafts: list[NodeDraft] = []
     names: list[str] = []
@@ -182,9 +185,16 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     # a node with a clashing id clashes in every predefined COB-ID too: reported once above
     check_cob_ids(issues, [pdo for draft in drafts if draft.name not in clashing for pdo in draft.pdos])
     simulation = _simulation(root.section('simulation'), names, bus)
+    nodes = tuple(d.config for d in drafts if d.config is not None)
+    if not issues.error_count:
+        warning, error = budget_verdict(bus_budget(bus.bitrate, master, nodes), allow_overload)
+        if error:
+            issues.error(Loc('bus'), error)
+        elif warning:
+            issues.warn(Loc('bus'), warning)
     issues.raise_if_errors()
-    return BusConfig(bus=bus, master=master, nodes=tuple(d.config for d in drafts if d.config is not None),
-                     simulation=simulation, path=path, warnings=issues.warning_texts())
+    return BusConfig(bus=bus, master=master, nodes=nodes, simulation=simulation, path=path,
+                     warnings=issues.warning_texts(), allow_overload=allow_overload)
 
 
 def load_bus_config(path: str | os.PathLike[str]) -> BusConfig:
