@@ -1,6 +1,7 @@
 """The bus budget: can the bus carry the cyclic traffic the configuration asks for?
 
-Per cycle the bridge sends SYNC and every enabled RPDO; each synchronous TPDO comes back
+Per cycle the bridge sends SYNC and every enabled RPDO (one that carries interpolation data
+only for a node with an axis in ip); each synchronous TPDO comes back
 every n-th SYNC (transmission type n), an acyclic or event-driven one at most once per
 cycle (less with an inhibit time); heartbeats and node guarding come on top at their own
 period. Bits per frame are the classic CAN frame with worst-case bit stuffing
@@ -11,9 +12,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from drive_bridge.families import get_family
 from drive_bridge.model import BusConfig, MasterConfig, NodeConfig, PdoConfig
 
 WARN_LOAD = 0.70
+INTERPOLATED_POSITION = 7
 UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # the master's cycle without SYNC (drive_bridge.master.master)
 
 
@@ -75,6 +78,14 @@ def _tpdo_per_cycle(pdo: PdoConfig, period: float) -> float:
     return 1.0  # acyclic or on change: once per cycle in the worst case
 
 
+def _idle(node: NodeConfig, pdo: PdoConfig) -> bool:
+    """An RPDO sent only when written (the interpolation data of ip), on a node with no axis in ip."""
+    family = get_family(node.family)
+    if not any(family.sent_on_write(e.index, e.subindex) for e in pdo.mapping):
+        return False
+    return not any(INTERPOLATED_POSITION in (a.mode, a.position_mode) for a in node.axes)
+
+
 def _background(master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> tuple[float, float]:
     """(frames/s, bits/s) of heartbeats and node guarding."""
     frames = bits = 0.0
@@ -100,7 +111,7 @@ def bus_budget(bus_bitrate: int | None, master: MasterConfig, nodes: tuple[NodeC
     rpdos = tpdos = 0.0
     for node in nodes:
         for pdo in node.rpdo:
-            if pdo.enabled:
+            if pdo.enabled and not _idle(node, pdo):
                 rpdos += 1
                 bits += frame_bits((pdo.bits + 7) // 8)
         for pdo in node.tpdo:
