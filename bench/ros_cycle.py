@@ -108,6 +108,8 @@ class Window:
 
 
 def bridge_role(config_path: str, variant: str, out: str) -> None:
+    if os.environ.get('BENCH_SWITCH_INTERVAL'):  # an experiment's knob (README "Performance")
+        sys.setswitchinterval(float(os.environ['BENCH_SWITCH_INTERVAL']))
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     window = Window()
