@@ -108,8 +108,6 @@ class Window:
 
 
 def bridge_role(config_path: str, variant: str, out: str) -> None:
-    if os.environ.get('BENCH_SWITCH_INTERVAL'):  # an experiment's knob (README "Performance")
-        sys.setswitchinterval(float(os.environ['BENCH_SWITCH_INTERVAL']))
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     window = Window()
@@ -305,6 +303,28 @@ def subscriber_role(joints: int, out: str, stream: bool) -> None:
     os._exit(0)
 
 
+# --- the machine probe -------------------------------------------------------------------------
+
+def probe_role(period: float, seconds: float, out: str) -> None:
+    """A bare sleep loop on the period grid, the bridge's skip rule: what the machine alone costs."""
+    deadline = time.perf_counter() + period
+    end = deadline + seconds
+    skipped = cycles = 0
+    late: list[float] = []
+    while deadline < end:
+        delay = deadline - time.perf_counter()
+        if delay > 0:
+            time.sleep(delay)
+        woke = time.perf_counter()
+        late.append(woke - deadline)
+        cycles += 1
+        deadline += period
+        while deadline - woke < period / 2:
+            deadline += period
+            skipped += 1
+    Path(out).write_text(json.dumps({'skipped': skipped, 'cycles': cycles, 'late_p99': _pct(late, 0.99)}))
+
+
 # --- the orchestrator ---------------------------------------------------------------------------
 
 def _popen(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[str]:
@@ -347,7 +367,11 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         bridge.stdin.write('start\n')
         bridge.stdin.flush()
         opened = time.time()
+        probe = _popen([*me, '--role', 'probe', '--period', str(period_ms / 1000), '--seconds', str(seconds),
+                        '--out', str(work / f'{channel}.probe.json')], env, log)
+        processes.append(probe)
         time.sleep(seconds)
+        probe.wait(30)
         bridge.stdin.write('stop\n')
         bridge.stdin.flush()
         closed = time.time()
@@ -357,6 +381,7 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         sub.wait(30)
         data = json.loads((work / f'{channel}.bridge.json').read_text())
         states = json.loads((work / f'{channel}.sub.json').read_text())
+        data['probe'] = json.loads((work / f'{channel}.probe.json').read_text())
     except Exception as exc:
         tail = log.read_text(errors='replace').strip().splitlines()[-3:]
         raise RuntimeError(f'{exc}; log: {" | ".join(tail)}') from None
@@ -401,7 +426,9 @@ def analyse(data: dict, states: list[list[float]], axes: int, period: float) -> 
             'on_time': on_time / len(intervals) if intervals else float('nan'),
             'lead_p50': statistics.median(leads) if leads else float('nan'),
             'js_p50': statistics.median(latency) if latency else float('nan'),
-            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu']}
+            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'],
+            'idle_skip': (probe['skipped'] / (probe['skipped'] + probe['cycles'])
+                          if (probe := data.get('probe')) else float('nan'))}
 
 
 def _ratio(naive: float, bridge: float, lower_is_better: bool = True) -> str:
@@ -413,7 +440,7 @@ def _ratio(naive: float, bridge: float, lower_is_better: bool = True) -> str:
 
 
 HEADER = (f'{"axes":>4} {"ms":>3} {"load":>5} {"":6} {"SYNC p50":>8} {"p99":>6} {"max":>6} {"skipped":>13} '
-          f'{"on time":>7} {"lead":>5} {"js p50":>6} {"js p99":>6} {"CPU":>5}')
+          f'{"on time":>7} {"lead":>5} {"js p50":>6} {"js p99":>6} {"CPU":>5} {"idle":>5}')
 
 
 def row(axes: int, period_ms: float, load: float, variant: str, r: dict) -> str:
@@ -421,7 +448,7 @@ def row(axes: int, period_ms: float, load: float, variant: str, r: dict) -> str:
     return (f'{axes:4d} {period_ms:3g} {load:4.0%}{mark} {variant:6} {r["sync_p50"] * 1e3:8.2f} '
             f'{r["sync_p99"] * 1e3:6.2f} {r["sync_max"] * 1e3:6.2f} {r["skipped"]:6d}/{r["cycles"] + r["skipped"]:<6d} '
             f'{r["on_time"]:7.1%} {r["lead_p50"] * 1e3:5.2f} {r["js_p50"] * 1e3:6.2f} {r["js_p99"] * 1e3:6.2f} '
-            f'{r["cpu"]:5.0%}')
+            f'{r["cpu"]:5.0%} {r["idle_skip"]:5.1%}')
 
 
 def ratio_row(bridge: dict, naive: dict, period: float) -> str:
@@ -434,7 +461,8 @@ def ratio_row(bridge: dict, naive: dict, period: float) -> str:
 
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(prog='python -m bench ros_cycle', description=__doc__.split('\n\n')[0])
-    parser.add_argument('--role', choices=['bridge', 'subscriber'], help=argparse.SUPPRESS)
+    parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe'], help=argparse.SUPPRESS)
+    parser.add_argument('--period', type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument('--variant', default='bridge', help=argparse.SUPPRESS)
     parser.add_argument('--config', help=argparse.SUPPRESS)
     parser.add_argument('--out', help=argparse.SUPPRESS)
@@ -450,6 +478,8 @@ def main(argv: list[str]) -> None:
         return bridge_role(args.config, args.variant, args.out)
     if args.role == 'subscriber':
         return subscriber_role(args.joints, args.out, args.stream)
+    if args.role == 'probe':
+        return probe_role(args.period, args.seconds, args.out)
     if args.quick:
         args.axes, args.periods, args.seconds = [1, 4], [4], 3.0
     from drive_bridge.config import load_bus_config_text
@@ -462,6 +492,7 @@ def main(argv: list[str]) -> None:
         print(f'{args.seconds:g} s per case; SYNC/lead/js in ms; skipped = grid points without SYNC of all; '
               'on time = SYNCs whose every set-point RPDO went out after the previous SYNC; '
               "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
+              "idle = cycles a bare sleep loop in another process skipped meanwhile (the machine's own share); "
               "'!' = over 70 % of 1 Mbit/s")
         print(HEADER)
         for period_ms in args.periods:
