@@ -27,5 +27,6 @@ setup(
             f'drive-bridge = {PACKAGE}.cli.main:console_main',
             f'bridge_managed = {PACKAGE}.cli:bridge_managed_main',
         ],
+        'can.interface': [f'local = {PACKAGE}.transport.local:LocalBus'],
     },
 )

@@ -346,6 +346,7 @@ class BusConfig:
     record: RecordConfig = field(default_factory=RecordConfig)
     path: Path | None = None
     warnings: tuple[str, ...] = ()  # accepted but ignored keys (e.g. ros2_canopen ones), each located
+    allow_overload: bool = False  # bus.allow_overload: run a configuration the bus cannot carry
 
     def node(self, name: str) -> NodeConfig:
         for node in self.nodes:

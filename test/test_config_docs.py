@@ -20,7 +20,7 @@ def test_documented_complete_example_loads(tmp_path: Path) -> None:
     config = load_yaml(tmp_path, example.group(1))
     assert [n.name for n in config.nodes] == ['shoulder', 'slide', 'io']
     assert [a.joint for _, a in config.axes] == ['shoulder_pan', 'shoulder_lift', 'slide']
-    assert config.bus.interface == 'socketcan' and config.master.sync_period == 0.002
+    assert config.bus.interface == 'socketcan' and config.master.sync_period == 0.004
     assert config.warnings == ()
     access = config.access
     assert access.sdo_write.allows(9, 0x6200) and not access.sdo_write.allows(9, 0x6040)

@@ -27,7 +27,7 @@ def test_bus_master_and_simulation(complete: BusConfig) -> None:
     assert dict(complete.bus.options) == {'receive_own_messages': False}
     master = complete.master
     assert (master.node_id, master.sync_producer, master.heartbeat_producer_ms) == (120, 'bridge', 50)
-    assert master.sync_period == pytest.approx(0.002)  # 2000 us
+    assert master.sync_period == pytest.approx(0.005)  # 5000 us
     assert master.heartbeat_multiplier == 2.5
     assert master.heartbeat_consumer is True
     assert complete.simulation.enabled is True

@@ -101,7 +101,7 @@ def plugin(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
 def bus(channel: str, **node: object) -> dict[str, object]:
     return {
         'bus': {'interface': 'virtual', 'channel': channel},
-        'master': {'sync_period': 4},
+        'master': {'sync_period': 4000},
         'nodes': {'acme': {'node_id': NODE, 'family': FAMILY, 'guard_time_ms': GUARD_MS,
                            'life_time_factor': FACTOR, **node,
                            'axes': [{'joint': 'wrist_joint'}]}},

@@ -1,4 +1,4 @@
-"""The SYNC producer: hooks before and after each SYNC, skipping (not bursting) after a stall."""
+"""The SYNC producer: set-points between SYNCs, hooks after each, skipping (not bursting) after a stall."""
 from __future__ import annotations
 
 import time
@@ -22,9 +22,11 @@ def test_cycle_order_and_no_burst_after_a_stall() -> None:
     producer.start()
     time.sleep(0.4)
     producer.stop()
-    kinds = [k for k, _, _ in log]
-    # every cycle is before -> SYNC -> after
-    assert kinds[:6] == ['before', 'sync', 'after', 'before', 'sync', 'after']
+    kinds = [(k, c if k != 'sync' else None) for k, c, _ in log]
+    # SYNC first; then the set-points for the next SYNC (inside the synchronous window), then
+    # the after hooks of the SYNC just sent
+    assert kinds[:7] == [('before', 0), ('sync', None), ('before', 1), ('after', 0), ('sync', None),
+                         ('before', 2), ('after', 1)]
     assert all(cob == SYNC_COB_ID for k, cob, _ in log if k == 'sync')
     syncs = [t for k, _, t in log if k == 'sync']
     intervals = [b - a for a, b in zip(syncs, syncs[1:])]
@@ -34,6 +36,31 @@ def test_cycle_order_and_no_burst_after_a_stall() -> None:
     stats = producer.stats()
     assert stats.cycles == len(syncs) and 0.003 < stats.interval_median < 0.008
     assert stats.lead_max < 0.01
+
+
+def test_set_points_wait_for_the_feedback_and_are_sampled_at_their_syncs_grid_time() -> None:
+    log: list[tuple[str, float]] = []
+    period = 0.01
+
+    def feedback(timeout: float) -> bool:  # the drives answer 2 ms after SYNC
+        log.append(('wait', timeout))
+        time.sleep(0.002)
+        return True
+
+    producer = SyncProducer(lambda cob, data: log.append(('sync', time.time())), period, feedback=feedback)
+    producer.add_before_sync(lambda cycle: log.append(('scheduled', producer.scheduled_time)))
+    producer.start()
+    time.sleep(0.2)
+    producer.stop()
+    syncs = [t for k, t in log if k == 'sync']
+    scheduled = [t for k, t in log if k == 'scheduled']
+    waits = [t for k, t in log if k == 'wait']
+    # the set-points sampled for SYNC n are sampled at its grid time: within wake-up jitter of it
+    assert all(abs(s - g) < 0.005 for s, g in zip(syncs, scheduled)), list(zip(syncs, scheduled))[:5]
+    assert scheduled == sorted(scheduled) and abs((scheduled[5] - scheduled[4]) - period) < 1e-6
+    # the wait for the drives' TPDOs is bounded by half a period after SYNC
+    assert waits and all(0 <= w <= period / 2 for w in waits)
+    assert producer.stats().lead_median > 0.002  # set-points ready well before their SYNC
 
 
 def test_a_failing_hook_is_reported_and_sync_continues() -> None:
@@ -47,5 +74,5 @@ def test_a_failing_hook_is_reported_and_sync_continues() -> None:
     producer.start()
     time.sleep(0.1)
     producer.stop()
-    assert len(sent) >= 10 and producer.hook_errors == len(sent)
+    assert len(sent) >= 10 and producer.hook_errors in (len(sent), len(sent) + 1)  # one cycle ahead
     assert "failed: RuntimeError('boom')" in errors[0]

@@ -17,6 +17,7 @@ from drive_bridge.errors import DriveBridgeError
 # (verb, module under drive_bridge.cli, one-line help): the help is here so that listing the
 # verbs imports nothing.
 COMMANDS: tuple[tuple[str, str, str], ...] = (
+    ('sim', 'sim', 'host the simulated drives of a bus configuration on a CAN interface (until Ctrl-C)'),
     ('record', 'record', 'record a bus passively (listen only) into a rosbag2 MCAP bag'),
     ('import', 'importer', 'convert a CAN trace (trc, asc, blf, candump, csv, IXXAT MiniMon...) to a bag'),
     ('recover', 'recover', 'make a bag whose recorder was killed readable'),

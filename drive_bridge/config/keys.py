@@ -3,7 +3,7 @@ with a warning. One place, so docs/configuration.md and the checks agree."""
 from __future__ import annotations
 
 TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation', 'access', 'record')
-BUS = ('interface', 'channel', 'bitrate', 'options')
+BUS = ('interface', 'channel', 'bitrate', 'options', 'allow_overload')
 OPTIONS = ('dcf_path', 'heartbeat_multiplier')
 MASTER = ('node_id', 'sync_period', 'sync_producer', 'heartbeat_producer', 'heartbeat_consumer',
           'heartbeat_multiplier', 'baudrate')

@@ -11,6 +11,7 @@ import can
 
 from drive_bridge.config import keys
 from drive_bridge.config.access import parse_access
+from drive_bridge.config.busbudget import budget_verdict, bus_budget
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
@@ -18,6 +19,7 @@ from drive_bridge.config.reader import Section, describe, suggestion
 from drive_bridge.config.record import parse_record
 from drive_bridge.config.yamlio import parse_yaml, read_yaml
 from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
+from drive_bridge.transport import INTERFACES
 
 _BUS_ARGS = ('interface', 'channel', 'bitrate')
 
@@ -60,7 +62,7 @@ def _bus(sec: Section | None, baudrate_kbit: int | None, issues: Issues) -> BusI
     if sec is None:
         return BusInterface(bitrate=from_master or BusInterface().bitrate)
     sec.check_keys(keys.BUS)
-    interface = sec.get_str('interface', 'virtual', choices=sorted(can.VALID_INTERFACES)) or 'virtual'
+    interface = sec.get_str('interface', 'virtual', choices=sorted({*can.VALID_INTERFACES, *INTERFACES})) or 'virtual'
     channel: str | int = 'drive_bridge'
     if 'channel' in sec:
         raw = sec.get('channel')
@@ -165,7 +167,9 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     dcf_dir, multiplier = _options(root.section('options'), base_dir)
     master_sec = root.section('master')
     master, baudrate = _master(master_sec, multiplier)
-    bus = _bus(root.section('bus'), baudrate, issues)
+    bus_sec = root.section('bus')
+    bus = _bus(bus_sec, baudrate, issues)
+    allow_overload = bus_sec.get_bool('allow_overload', False) if bus_sec is not None else False
     context = NodeContext(issues, source, base_dir, dcf_dir, master, _defaults(root.section('defaults')))
     drafts: list[NodeDraft] = []
     names: list[str] = []
@@ -185,10 +189,16 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     simulation = _simulation(root.section('simulation'), names, bus)
     access = parse_access(root.section('access'), {d.name: d.node_id for d in drafts if d.node_id is not None})
     record = parse_record(root.section('record'))
+    nodes = tuple(d.config for d in drafts if d.config is not None)
+    if not issues.error_count:
+        warning, error = budget_verdict(bus_budget(bus.bitrate, master, nodes), allow_overload)
+        if error:
+            issues.error(Loc('bus'), error)
+        elif warning:
+            issues.warn(Loc('bus'), warning)
     issues.raise_if_errors()
-    return BusConfig(bus=bus, master=master, nodes=tuple(d.config for d in drafts if d.config is not None),
-                     simulation=simulation, access=access, record=record, path=path,
-                     warnings=issues.warning_texts())
+    return BusConfig(bus=bus, master=master, nodes=nodes, simulation=simulation, access=access, record=record,
+                     path=path, warnings=issues.warning_texts(), allow_overload=allow_overload)
 
 
 def load_bus_config(path: str | os.PathLike[str]) -> BusConfig:

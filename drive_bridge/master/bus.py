@@ -14,6 +14,8 @@ from typing import Any
 
 import can
 
+from drive_bridge.transport import INTERFACES
+
 FrameListener = Callable[[can.Message], None]
 
 
@@ -102,7 +104,10 @@ def open_bus(interface: str, channel: Any, bitrate: int | None = None,
     kwargs = dict(options)
     if bitrate:
         kwargs['bitrate'] = bitrate
+    plugin = INTERFACES.get(interface)  # the package's own transports, without the entry point too
     try:
+        if plugin is not None:
+            return plugin(channel=channel, **kwargs)
         return can.Bus(interface=interface, channel=channel, **kwargs)
     except Exception as exc:
         raise can.CanError(f'cannot open CAN bus interface={interface!r} channel={channel!r}: {exc}') from exc

@@ -21,6 +21,7 @@ import canopen
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC as UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
@@ -28,6 +29,7 @@ from drive_bridge.master.boot import BootError, boot_node, repeats_identically
 from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
 from drive_bridge.master.events import BusEvent, EventKind, Level
+from drive_bridge.master.feedback import CycleFeedback
 from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
@@ -39,7 +41,6 @@ log = logging.getLogger('drive_bridge.master')
 NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
                 0x81: 'reset node', 0x82: 'reset communication'}
 SUPERVISOR_PERIOD = 0.02
-UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # cycle period when the bridge sends no SYNC
 ADHOC_SDO_TIMEOUT = 0.3
 LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets
 
@@ -76,6 +77,7 @@ class Master:
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
         self._cycle_listeners: list[Callable[[int], None]] = []
+        self.feedback = CycleFeedback()
         self.sync: SyncProducer | None = None
         self._heartbeat_task: canopen.network.PeriodicMessageTask | None = None
         self._stop = threading.Event()
@@ -96,8 +98,13 @@ class Master:
         self._emcy_listeners = [*self._emcy_listeners, listener]
 
     def add_cycle_listener(self, listener: Callable[[int], None]) -> None:
-        """Called right after each cycle's SYNC (cycle thread, keep it short)."""
+        """Called after each cycle's SYNC and set-points (cycle thread, keep it short)."""
         self._cycle_listeners = [*self._cycle_listeners, listener]
+
+    def add_feedback_listener(self, listener: Callable[[], None]) -> None:
+        """Called once per cycle when every available node's synchronous TPDOs answering the
+        SYNC are in (CAN thread, keep it short); not in a cycle where one is missing."""
+        self.feedback.add_listener(listener)
 
     def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None) -> None:
         event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '')
@@ -140,6 +147,7 @@ class Master:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
                                                                             period)
+        self.feedback.watch(self.network, self.nodes.values())
         self._start_cycle()
         if cfg.master.heartbeat_producer_ms:
             self._heartbeat_task = self.network.send_periodic(
@@ -158,7 +166,8 @@ class Master:
             return
         period = master.sync_period if master.sync_period > 0 else UPDATE_PERIOD_WITHOUT_SYNC
         self.sync = SyncProducer(self.network.send_message, period, send_sync=master.sync_period > 0,
-                                 on_error=on_error)
+                                 on_error=on_error, feedback=self.feedback.wait if master.sync_period > 0 else None)
+        self.sync.add_at_sync(self.feedback.arm)
         self.sync.add_before_sync(self._before_sync)
         self.sync.add_after_sync(self._after_sync)
         self.sync.start()
@@ -167,6 +176,7 @@ class Master:
         """Another node produces SYNC: send the RPDOs for the next one right away."""
         cycle = self._cycle_count
         self._cycle_count += 1
+        self.feedback.arm(cycle)
         self._after_sync(cycle)
         self._before_sync(cycle + 1)
 

@@ -3,10 +3,14 @@
 The bridge sends SYNC from its own thread rather than python-can's periodic task:
 on every interface but SocketCAN that task is a Python thread which, after a stall,
 sends the missed SYNCs back to back (measured in docs/python-ecosystem.md §1.3), and
-drives latch setpoints on each SYNC. Here each cycle runs the ``before_sync`` hooks
-(which send the RPDOs with the setpoints for this SYNC), then sends SYNC, then the
-``after_sync`` hooks. Deadlines are absolute; a missed deadline is skipped and counted,
-never made up with a burst.
+drives latch setpoints on each SYNC. The cycle follows the standard CANopen timing
+(as lely does): SYNC goes out first, on its deadline; then the cycle waits (up to half
+a period) for the synchronous TPDOs the drives answer it with, so set-points are
+decided on fresh feedback; then the ``before_sync`` hooks send the RPDOs for the *next*
+SYNC, sampled at that SYNC's grid time, inside the synchronous window; then the
+``after_sync`` hooks. Work before the SYNC frame no longer delays it (measured in
+README "Performance"). Deadlines are absolute; a missed deadline is skipped and
+counted, never made up with a burst.
 """
 from __future__ import annotations
 
@@ -20,6 +24,8 @@ from dataclasses import dataclass
 SYNC_COB_ID = 0x080
 
 CycleHook = Callable[[int], None]
+FeedbackWait = Callable[[float], bool]  # wait up to the given seconds for this cycle's TPDOs
+FEEDBACK_WINDOW = 0.5  # of a period after SYNC: the longest wait for the drives' TPDOs
 
 
 @dataclass(frozen=True)
@@ -50,13 +56,16 @@ class SyncProducer:
 
     def __init__(self, send: Callable[[int, bytes], None], period: float, *,
                  send_sync: bool = True, window: int = 2000,
-                 on_error: Callable[[str], None] | None = None) -> None:
+                 on_error: Callable[[str], None] | None = None,
+                 feedback: FeedbackWait | None = None) -> None:
         if period <= 0:
             raise ValueError(f'SYNC period must be > 0 s, got {period}')
         self.period = period
         self.send_sync = send_sync
         self._send = send
         self._on_error = on_error
+        self._feedback = feedback
+        self._at_sync: list[CycleHook] = []
         self._before: list[CycleHook] = []
         self._after: list[CycleHook] = []
         self._intervals: deque[float] = deque(maxlen=window)
@@ -73,8 +82,14 @@ class SyncProducer:
         self.scheduled_time = 0.0
         self._epoch_offset = time.time() - time.perf_counter()
 
+    def add_at_sync(self, hook: CycleHook) -> None:
+        """Hook called with the cycle number right before that cycle's SYNC frame (keep it cheap)."""
+        with self._lock:
+            self._at_sync = [*self._at_sync, hook]
+
     def add_before_sync(self, hook: CycleHook) -> None:
-        """Hook called with the cycle number before that cycle's SYNC is sent."""
+        """Hook called with the cycle number to send that cycle's set-points: after the previous
+        SYNC (and its TPDOs), before this one; ``scheduled_time`` is this SYNC's grid time."""
         with self._lock:
             self._before = [*self._before, hook]
 
@@ -85,6 +100,7 @@ class SyncProducer:
 
     def remove_hook(self, hook: CycleHook) -> None:
         with self._lock:
+            self._at_sync = [h for h in self._at_sync if h is not hook]
             self._before = [h for h in self._before if h is not hook]
             self._after = [h for h in self._after if h is not hook]
 
@@ -114,17 +130,26 @@ class SyncProducer:
                 if self._on_error is not None:
                     self._on_error(f'cycle hook {getattr(hook, "__qualname__", hook)!r} failed: {exc!r}')
 
+    def _prepare(self, deadline: float, cycle: int) -> None:
+        """The set-points for the SYNC due at ``deadline``, sampled at its grid time."""
+        self.scheduled_time = deadline + self._epoch_offset
+        if self._before:
+            self._call(self._before, cycle)
+            self._prepared = time.perf_counter()
+
     def _run(self) -> None:
-        deadline = time.perf_counter() + self.period
+        period = self.period
+        deadline = time.perf_counter() + period
         previous = 0.0
+        self._prepared = 0.0
+        self._prepare(deadline, self.cycles)
         while not self._stop.is_set():
             delay = deadline - time.perf_counter()
             if delay > 0 and self._stop.wait(delay):
                 break
             cycle = self.cycles
-            self.scheduled_time = deadline + self._epoch_offset
-            self._call(self._before, cycle)
-            hooks_done = time.perf_counter()
+            if self._at_sync:
+                self._call(self._at_sync, cycle)
             if self.send_sync:
                 try:
                     self._send(SYNC_COB_ID, b'')
@@ -136,17 +161,21 @@ class SyncProducer:
             self.last_sync_time = time.time()
             if previous:
                 self._intervals.append(sent - previous)
-            if self._before:
-                self._leads.append(sent - hooks_done)
+            if self._prepared:
+                self._leads.append(sent - self._prepared)
+                self._prepared = 0.0
             previous = sent
             self.cycles += 1
-            self._call(self._after, cycle)
             # stay on the period grid; a grid point closer than half a period to this
             # SYNC (we ran late) is skipped, so drives never see SYNCs back to back
-            deadline += self.period
-            while deadline - sent < self.period / 2:
-                deadline += self.period
+            deadline += period
+            while deadline - sent < period / 2:
+                deadline += period
                 self.skipped += 1
+            if self._feedback is not None:
+                self._feedback(max(0.0, sent + FEEDBACK_WINDOW * period - time.perf_counter()))
+            self._prepare(deadline, cycle + 1)
+            self._call(self._after, cycle)
 
     def stats(self) -> SyncStats:
         """Timing of the recent window: intervals between SYNCs and setpoint lead."""

@@ -1,7 +1,8 @@
 """State the node publishes: joint states, axis states, EMCY, CAN frames, diagnostics.
 
-Joint states are published from the master's cycle thread right after SYNC, EMCY and
-frames from the CAN threads: rclpy's publish is thread-safe and cheap (about 8 µs with
+Joint states are published from the CAN thread as soon as the drives' synchronous TPDOs
+answering a SYNC are all in (the cycle thread publishes them at the next SYNC only when
+some did not come); EMCY and frames from the CAN threads too: rclpy's publish is thread-safe and cheap (about 8 µs with
 no subscriber, docs/python-ecosystem.md §6). Frame messages are only built while
 someone subscribes.
 """
@@ -51,6 +52,7 @@ class StateTopics:
         self._joint_of_node = {n.node_id: {a.slot: a.joint for a in n.config.axes} for n in master.nodes.values()}
         self._min_interval = 1.0 / params.publish_rate if params.publish_rate > 0 else 0.0
         self._last_joint_states = 0.0
+        self._published_on_feedback = False
         self._frame_subscribers = 0
         self._last_states: tuple = ()
         self._unavailable: set[str] = set()
@@ -69,6 +71,7 @@ class StateTopics:
     def attach(self) -> None:
         """Register with the master and start the timers."""
         self.master.add_cycle_listener(self.on_cycle)
+        self.master.add_feedback_listener(self.on_feedback)
         self.master.add_emcy_listener(self.on_emcy)
         if self.params.publish_frames:
             self.master.add_frame_listener(self.on_frame)
@@ -92,8 +95,18 @@ class StateTopics:
         self._diagnostics_timer.timer_period_ns = round(params.diagnostics_period * 1e9)
         self._diagnostics_timer.reset()
 
-    # -- joint states (cycle thread) ---------------------------------------------------------
+    # -- joint states (CAN thread, or the cycle thread when feedback is missing) ------------------
+    def on_feedback(self) -> None:
+        self._published_on_feedback = True
+        self._publish_states()
+
     def on_cycle(self, _cycle: int) -> None:
+        if self._published_on_feedback:  # the last cycle's TPDOs came and were published
+            self._published_on_feedback = False
+            return
+        self._publish_states()
+
+    def _publish_states(self) -> None:
         if not self.active:
             return
         now = time.monotonic()

@@ -6,6 +6,7 @@ inspect them through :meth:`SimulatedBus.drive`.
 """
 from __future__ import annotations
 
+import can
 import canopen
 
 from drive_bridge.model import BusConfig
@@ -17,8 +18,11 @@ class SimulatedBus:
     """Simulators for all nodes of ``config``; ``start()`` powers them on, ``stop()``
     powers off and disconnects (no thread left). Also a context manager."""
 
-    def __init__(self, config: BusConfig) -> None:
-        if config.bus.interface != 'virtual':
+    def __init__(self, config: BusConfig, bus: can.BusABC | None = None) -> None:
+        # ``bus``: an open bus of any interface to use instead of the config's virtual
+        # channel (``drive-bridge sim``); it is shut down by stop()
+        self._bus = bus
+        if bus is None and config.bus.interface != 'virtual':
             raise ValueError(f'simulated drives need the python-can "virtual" interface, '
                              f'not {config.bus.interface!r}')
         names = {node.name for node in config.nodes}
@@ -40,9 +44,12 @@ class SimulatedBus:
         """Connect to the virtual channel and power every node on (boot-up frames follow)."""
         if self.network is not None:
             return self
-        network = canopen.Network()
+        network = canopen.Network(self._bus)
         network.NOTIFIER_CYCLE = NOTIFIER_CYCLE
-        network.connect(interface='virtual', channel=self.config.bus.channel, receive_own_messages=False)
+        if self._bus is not None:
+            network.connect()
+        else:
+            network.connect(interface='virtual', channel=self.config.bus.channel, receive_own_messages=False)
         self.network = network
         try:
             for drive in self.drives.values():

@@ -1,0 +1,513 @@
+"""The bridge as users run it, against a naive canopen + rclpy bridge, on the same drives.
+
+Three processes per case, over the package's ``local`` CAN transport: the simulated drives
+(``drive-bridge sim``), the bridge (rclpy ``BusNode``: ``/joint_states`` every cycle,
+``/diagnostics``, a trajectory streaming on every axis from the subscriber's process), and a
+ROS subscriber of ``/joint_states``. The naive bridge, in the same run and on fresh drives
+with the same PDO maps, is what the canopen and rclpy documentation lead to: canopen's
+``network.sync.start`` (python-can's thread task), ``RemoteNode`` TPDO callbacks decoding
+with ``PdoVariable.raw``, and an rclpy timer at the SYNC period that writes the set-points
+(the same motion, computed in place: it has no trajectory handling to pay for) and
+publishes the joint states.
+
+Per case, measured in the bridge process over the window (frames seen by its bus tap):
+SYNC interval at send (p50/p99/max), skipped cycles (grid points without a SYNC), set-points
+on time (every node's set-point RPDO sent after SYNC n-1 and before SYNC n) and how long
+before its SYNC the last one went out; at the subscriber: TPDO reception (the JointState
+stamp, taken from the received TPDO) -> message received (p50/p99); the bridge process's
+CPU (psutil, % of one core); the bus load of the PDO maps (budget, worst-case stuffing);
+rows over 70 % of 1 Mbit/s are marked ``!`` (run with bus.allow_overload).
+
+    .venv/bin/python -m bench ros_cycle [--quick] [--axes 1 2 4 6 8] [--periods 1 2 4 10] [--seconds 10]
+"""
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import math
+import os
+import random
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+REPO = Path(__file__).resolve().parent.parent
+TOOL = Path(sys.executable).parent / 'drive-bridge'
+AMPLITUDE = 0.3  # rad
+FREQUENCY = 0.5  # Hz
+WARMUP = 1.0  # s of streaming before the window opens
+RPDO_SETPOINT = 0x300  # RPDO 2 of the generic 402 maps: target position + velocity
+SYNC_ID = 0x080
+
+
+def motion(t: float, k: int) -> float:
+    """Offset from the start position of axis k at t s into the motion (zero velocity at 0)."""
+    return AMPLITUDE * (1 - math.cos(2 * math.pi * FREQUENCY * t + 0.0 * k)) * (1 + 0.1 * k)
+
+
+def motion_velocity(t: float, k: int) -> float:
+    return AMPLITUDE * 2 * math.pi * FREQUENCY * math.sin(2 * math.pi * FREQUENCY * t) * (1 + 0.1 * k)
+
+
+def bus_data(axes: int, period_ms: float, channel: str) -> dict[str, Any]:
+    return {
+        'bus': {'interface': 'local', 'channel': channel, 'bitrate': 1_000_000, 'allow_overload': True},
+        'master': {'node_id': 127, 'sync_period': round(period_ms * 1000), 'heartbeat_producer': 100},
+        'nodes': {f'drive{i}': {'node_id': i, 'family': 'generic_402', 'heartbeat_producer': 100,
+                                'axes': [{'joint': f'j{i}', 'mode': 'csp',
+                                          'scaling': {'counts_per_revolution': 65536, 'rated_torque': 1.0},
+                                          'limits': {'max_velocity': 5.0}}]}
+                  for i in range(1, axes + 1)},
+    }
+
+
+def _pct(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] if ordered else float('nan')
+
+
+# --- the bridge process -------------------------------------------------------------------------
+
+class Window:
+    """Frames seen by the bus tap while the measurement window is open (time, id, sent)."""
+
+    def __init__(self) -> None:
+        self.open = False
+        self.frames: list[tuple[float, int, bool]] = []
+        self.cpu = (0.0, 0.0)
+
+    def __call__(self, msg: Any) -> None:
+        if self.open:
+            self.frames.append((msg.timestamp, msg.arbitration_id, not msg.is_rx))
+
+    def run(self, ready: threading.Event) -> None:
+        import psutil
+        me = psutil.Process()
+        ready.wait()
+        print('ready', flush=True)
+        for line in sys.stdin:
+            if line.strip() == 'start':
+                t = me.cpu_times()
+                self.cpu = (t.user + t.system, time.perf_counter())
+                self.open = True
+            elif line.strip() == 'stop':
+                self.open = False
+                t = me.cpu_times()
+                cpu_s, since = self.cpu
+                self.cpu = ((t.user + t.system - cpu_s) / (time.perf_counter() - since), 0.0)
+                return
+
+
+def bridge_role(config_path: str, variant: str, out: str) -> None:
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    window = Window()
+    ready = threading.Event()
+    rclpy.init(args=['bench_bridge', '--ros-args', '-p', 'auto_enable:=true'])
+    if variant == 'bridge':
+        from drive_bridge.cia402.statemachine import State
+        from drive_bridge.ros.node import BusNode
+        node: Any = BusNode(config_path)
+        node.master.add_frame_listener(window)
+
+        def wait_enabled() -> None:
+            node.master.wait_until_operational(30)
+            deadline = time.monotonic() + 30
+            while not all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()):
+                if time.monotonic() > deadline:
+                    print('not all axes enabled', file=sys.stderr, flush=True)
+                    os._exit(3)
+                time.sleep(0.05)
+            ready.set()
+        threading.Thread(target=wait_enabled, daemon=True).start()
+        close = node.close
+    else:
+        node = NaiveBridge(config_path, window, ready)
+        close = node.close
+    gc.collect()
+    gc.freeze()  # as drive_bridge.ros.main.run does
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    control = threading.Thread(target=window.run, args=(ready,), daemon=True)
+    control.start()
+    spin = threading.Thread(target=lambda: _spin(executor, ExternalShutdownException), daemon=True)
+    spin.start()
+    control.join()
+    sync_stats = None
+    if variant == 'bridge' and node.master.sync is not None:
+        s = node.master.sync.stats()
+        sync_stats = {'skipped': s.skipped, 'cycles': s.cycles}
+    Path(out).write_text(json.dumps({'frames': window.frames, 'cpu': window.cpu[0], 'own': sync_stats}))
+    close()
+    executor.shutdown(timeout_sec=1)
+    os._exit(0)  # rclpy teardown in a benchmark child is not measured
+
+
+def _spin(executor: Any, shutdown_error: type[BaseException]) -> None:
+    try:
+        executor.spin()
+    except shutdown_error:
+        pass
+
+
+def _make_naive(base: type) -> type:
+    """The naive bridge class (defined late: it subclasses rclpy's Node, imported only in the child)."""
+    import canopen
+    from sensor_msgs.msg import JointState
+
+    from drive_bridge.config import load_bus_config
+    from drive_bridge.master.bus import FrameTap, TappedBus, open_bus
+
+    class Naive(base):  # type: ignore[misc, valid-type]
+        def __init__(self, config_path: str, window: Window, ready: threading.Event) -> None:
+            super().__init__('drive_bridge')
+            self.config = load_bus_config(config_path)
+            tap = FrameTap()
+            tap.add_listener(window)
+            bus = self.config.bus
+            self.network = canopen.Network(TappedBus(open_bus(bus.interface, bus.channel, bus.bitrate), tap))
+            self.network.connect()
+            self.axes = []
+            for k, cfg in enumerate(self.config.nodes):
+                remote = canopen.RemoteNode(cfg.node_id, cfg.od)
+                self.network.add_node(remote)
+                remote.nmt.state = 'PRE-OPERATIONAL'
+                for table, pdos in ((remote.rpdo, cfg.rpdo), (remote.tpdo, cfg.tpdo)):
+                    table.read(from_od=True)
+                    wanted = {pdo.number: pdo for pdo in pdos}
+                    for number, pdo_map in table.map.items():
+                        pdo = wanted.get(number)
+                        if pdo is None:  # the same maps as the bridge's: nothing else enabled
+                            if pdo_map.enabled:
+                                pdo_map.enabled = False
+                                pdo_map.save()
+                            continue
+                        pdo_map.clear()
+                        for entry in pdo.mapping:
+                            pdo_map.add_variable(entry.index, entry.subindex, entry.bits)
+                        pdo_map.cob_id, pdo_map.trans_type, pdo_map.enabled = pdo.cob_id, pdo.transmission, True
+                        pdo_map.save()
+                axis = {'node': remote, 'k': k, 'scaling': cfg.axes[0].scaling, 'name': cfg.axes[0].joint,
+                        'sw': 0, 'pos': None, 'stamp': 0.0, 'start': None}
+                remote.tpdo[1].add_callback(lambda m, a=axis: a.update(sw=m[0x6041].raw))
+                remote.tpdo[2].add_callback(lambda m, a=axis: a.update(pos=m[0x6064].raw, stamp=m.timestamp))
+                self.axes.append(axis)
+            for axis in self.axes:
+                axis['node'].nmt.state = 'OPERATIONAL'
+            period = self.config.master.sync_period
+            self.network.sync.start(period)
+            self.publisher = self.create_publisher(JointState, '/joint_states', 10)
+            self.t0: float | None = None
+            self.ready = ready
+            self.timer = self.create_timer(period, self.on_timer)
+
+        def on_timer(self) -> None:
+            now = time.time()
+            msg = JointState()
+            enabled = 0
+            for axis in self.axes:
+                remote, sw = axis['node'], axis['sw']
+                if axis['pos'] is None:
+                    continue
+                state = sw & 0x6F
+                cw = 0x06 if state in (0x40, 0x60) or sw & 0x4F == 0x40 else 0x07 if state == 0x21 else 0x0F
+                if sw & 0x08:
+                    cw = 0x80
+                if state == 0x27:
+                    enabled += 1
+                if axis['start'] is None or state != 0x27:
+                    axis['start'] = axis['pos']
+                    target = axis['pos']
+                else:
+                    t = now - self.t0 if self.t0 is not None else 0.0
+                    target = axis['start'] + axis['scaling'].position_to_device(motion(t, axis['k']))
+                remote.rpdo[1][0x6040].raw = cw
+                remote.rpdo[1][0x6060].raw = 8
+                remote.rpdo[2][0x607A].raw = int(target)
+                remote.rpdo[1].transmit()
+                remote.rpdo[2].transmit()
+                msg.name.append(axis['name'])
+                msg.position.append(axis['scaling'].position_to_si(axis['pos']))
+            if enabled == len(self.axes) and self.t0 is None:
+                self.t0 = now
+                self.ready.set()
+            stamps = [a['stamp'] for a in self.axes if a['stamp']]
+            if msg.name and stamps:
+                newest = max(stamps)
+                msg.header.stamp.sec = int(newest)
+                msg.header.stamp.nanosec = int((newest % 1) * 1e9)
+                self.publisher.publish(msg)
+
+        def close(self) -> None:
+            self.network.sync.stop()
+            self.network.disconnect()
+
+    return Naive
+
+
+def NaiveBridge(config_path: str, window: Window, ready: threading.Event) -> Any:  # noqa: N802 (a factory)
+    from rclpy.node import Node
+    return _make_naive(Node)(config_path, window, ready)
+
+
+# --- the subscriber process ---------------------------------------------------------------------
+
+def subscriber_role(joints: int, out: str, stream: bool) -> None:
+    import rclpy
+    from builtin_interfaces.msg import Duration
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    rclpy.init()
+    node = rclpy.create_node('bench_subscriber')
+    received: list[tuple[float, float]] = []
+    latest: dict[str, float] = {}
+
+    def on_state(msg: JointState) -> None:
+        received.append((time.time(), msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9))
+        latest.update(zip(msg.name, msg.position))
+    node.create_subscription(JointState, '/joint_states', on_state, 100)
+    publisher = node.create_publisher(JointTrajectory, '/drive_bridge/joint_trajectory', 10)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    threading.Thread(target=executor.spin, daemon=True).start()
+    while len(latest) < joints:
+        time.sleep(0.05)
+    if stream:  # one long trajectory on every axis, from where they are
+        names = sorted(latest, key=lambda n: int(n[1:]))
+        msg = JointTrajectory(joint_names=names)
+        start = time.time() + 0.3
+        msg.header.stamp.sec, msg.header.stamp.nanosec = int(start), int((start % 1) * 1e9)
+        step, total = 0.05, 600.0
+        for n in range(1, int(total / step)):
+            t = n * step
+            msg.points.append(JointTrajectoryPoint(
+                positions=[latest[j] + motion(t, k) for k, j in enumerate(names)],
+                velocities=[motion_velocity(t, k) for k, _ in enumerate(names)],
+                time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9)) % 1_000_000_000)))
+        while publisher.get_subscription_count() == 0:
+            time.sleep(0.05)
+        publisher.publish(msg)
+    print('streaming', flush=True)
+    sys.stdin.readline()
+    Path(out).write_text(json.dumps(received))
+    os._exit(0)
+
+
+# --- the machine probe -------------------------------------------------------------------------
+
+def probe_role(period: float, seconds: float, out: str) -> None:
+    """A bare sleep loop on the period grid, the bridge's skip rule: what the machine alone costs."""
+    deadline = time.perf_counter() + period
+    end = deadline + seconds
+    skipped = cycles = 0
+    late: list[float] = []
+    while deadline < end:
+        delay = deadline - time.perf_counter()
+        if delay > 0:
+            time.sleep(delay)
+        woke = time.perf_counter()
+        late.append(woke - deadline)
+        cycles += 1
+        deadline += period
+        while deadline - woke < period / 2:
+            deadline += period
+            skipped += 1
+    Path(out).write_text(json.dumps({'skipped': skipped, 'cycles': cycles, 'late_p99': _pct(late, 0.99)}))
+
+
+# --- the orchestrator ---------------------------------------------------------------------------
+
+def _popen(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[str]:
+    with log.open('a') as stderr:  # the children's logs: read when a case fails
+        return subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, text=True,
+                                env=env, cwd=REPO)
+
+
+def _expect(process: subprocess.Popen[str], word: str, what: str, timeout: float = 60.0) -> None:
+    assert process.stdout is not None
+    result: list[str] = []
+    reader = threading.Thread(target=lambda: result.append(process.stdout.readline()), daemon=True)  # type: ignore[union-attr]
+    reader.start()
+    reader.join(timeout)
+    if not result or word not in result[0]:
+        raise RuntimeError(f'{what} did not say {word!r} within {timeout:.0f} s (got {result!r})')
+
+
+def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Path, env: dict[str, str]) -> dict:
+    channel = f'b{uuid.uuid4().hex[:6]}'
+    config = work / f'{channel}.yaml'
+    config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel)))
+    me = [sys.executable, '-m', 'bench.ros_cycle']
+    log = work / f'{channel}.log'
+    sim = _popen([str(TOOL), 'sim', str(config)], env, log)
+    processes = [sim]
+    try:
+        for _ in range(axes):
+            _expect(sim, 'simulating', 'drive-bridge sim')
+        bridge = _popen([*me, '--role', 'bridge', '--variant', variant, '--config', str(config),
+                         '--out', str(work / f'{channel}.bridge.json')], env, log)
+        processes.append(bridge)
+        sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--out', str(work / f'{channel}.sub.json')]
+                     + (['--stream'] if variant == 'bridge' else []), env, log)
+        processes.append(sub)
+        _expect(bridge, 'ready', f'{variant} bridge', 90)
+        _expect(sub, 'streaming', 'subscriber', 60)
+        time.sleep(WARMUP + 0.3)
+        assert bridge.stdin is not None and sub.stdin is not None
+        bridge.stdin.write('start\n')
+        bridge.stdin.flush()
+        opened = time.time()
+        probe = _popen([*me, '--role', 'probe', '--period', str(period_ms / 1000), '--seconds', str(seconds),
+                        '--out', str(work / f'{channel}.probe.json')], env, log)
+        processes.append(probe)
+        time.sleep(seconds)
+        probe.wait(30)
+        bridge.stdin.write('stop\n')
+        bridge.stdin.flush()
+        closed = time.time()
+        bridge.wait(30)
+        sub.stdin.write('stop\n')
+        sub.stdin.flush()
+        sub.wait(30)
+        data = json.loads((work / f'{channel}.bridge.json').read_text())
+        states = json.loads((work / f'{channel}.sub.json').read_text())
+        data['probe'] = json.loads((work / f'{channel}.probe.json').read_text())
+    except Exception as exc:
+        tail = log.read_text(errors='replace').strip().splitlines()[-3:]
+        raise RuntimeError(f'{exc}; log: {" | ".join(tail)}') from None
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                process.terminate()
+        for process in processes:
+            try:
+                process.wait(10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+    return analyse(data, [s for s in states if opened <= s[0] <= closed], axes, period_ms / 1000)
+
+
+def analyse(data: dict, states: list[list[float]], axes: int, period: float) -> dict:
+    frames = data['frames']
+    syncs = [t for t, can_id, sent in frames if sent and can_id == SYNC_ID]
+    intervals = [b - a for a, b in zip(syncs, syncs[1:])]
+    skipped = sum(max(0, round(iv / period) - 1) for iv in intervals)
+    setpoints = [(t, can_id) for t, can_id, sent in frames if sent and RPDO_SETPOINT < can_id <= RPDO_SETPOINT + 127]
+    on_time = 0
+    leads: list[float] = []
+    i = 0
+    for previous, sync in zip(syncs, syncs[1:]):
+        while i < len(setpoints) and setpoints[i][0] <= previous:
+            i += 1
+        j = i
+        nodes: set[int] = set()
+        last = 0.0
+        while j < len(setpoints) and setpoints[j][0] < sync:
+            nodes.add(setpoints[j][1])
+            last = setpoints[j][0]
+            j += 1
+        if len(nodes) == axes:
+            on_time += 1
+            leads.append(sync - last)
+    latency = [recv - stamp for recv, stamp in states if stamp > 0]
+    return {'sync_p50': statistics.median(intervals) if intervals else float('nan'),
+            'sync_p99': _pct(intervals, 0.99), 'sync_max': max(intervals, default=float('nan')),
+            'cycles': len(intervals), 'skipped': skipped,
+            'on_time': on_time / len(intervals) if intervals else float('nan'),
+            'lead_p50': statistics.median(leads) if leads else float('nan'),
+            'js_p50': statistics.median(latency) if latency else float('nan'),
+            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'],
+            'idle_skip': (probe['skipped'] / (probe['skipped'] + probe['cycles'])
+                          if (probe := data.get('probe')) else float('nan'))}
+
+
+def _ratio(naive: float, bridge: float, lower_is_better: bool = True) -> str:
+    if not (math.isfinite(naive) and math.isfinite(bridge)):
+        return '-'
+    if bridge == 0:
+        return '∞' if naive > 0 else '1'
+    return f'{naive / bridge:.1f}×' if lower_is_better else f'{bridge / naive:.1f}×' if naive else '∞'
+
+
+HEADER = (f'{"axes":>4} {"ms":>3} {"load":>5} {"":6} {"SYNC p50":>8} {"p99":>6} {"max":>6} {"skipped":>13} '
+          f'{"on time":>7} {"lead":>5} {"js p50":>6} {"js p99":>6} {"CPU":>5} {"idle":>5}')
+
+
+def row(axes: int, period_ms: float, load: float, variant: str, r: dict) -> str:
+    mark = '!' if load > 0.7 else ' '
+    return (f'{axes:4d} {period_ms:3g} {load:4.0%}{mark} {variant:6} {r["sync_p50"] * 1e3:8.2f} '
+            f'{r["sync_p99"] * 1e3:6.2f} {r["sync_max"] * 1e3:6.2f} {r["skipped"]:6d}/{r["cycles"] + r["skipped"]:<6d} '
+            f'{r["on_time"]:7.1%} {r["lead_p50"] * 1e3:5.2f} {r["js_p50"] * 1e3:6.2f} {r["js_p99"] * 1e3:6.2f} '
+            f'{r["cpu"]:5.0%} {r["idle_skip"]:5.1%}')
+
+
+def ratio_row(bridge: dict, naive: dict, period: float) -> str:
+    jitter = lambda r: abs(r['sync_p99'] - period)  # noqa: E731
+    late = lambda r: 1 - r['on_time']  # noqa: E731
+    return (f'{"":14} {"ratio":6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>13} {"":6} '
+            f'{_ratio(naive["skipped"], bridge["skipped"]):>13} {_ratio(late(naive), late(bridge)):>7} {"":5} '
+            f'{"":6} {_ratio(naive["js_p99"], bridge["js_p99"]):>6} {_ratio(naive["cpu"], bridge["cpu"]):>5}')
+
+
+def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(prog='python -m bench ros_cycle', description=__doc__.split('\n\n')[0])
+    parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe'], help=argparse.SUPPRESS)
+    parser.add_argument('--period', type=float, default=0.0, help=argparse.SUPPRESS)
+    parser.add_argument('--variant', default='bridge', help=argparse.SUPPRESS)
+    parser.add_argument('--config', help=argparse.SUPPRESS)
+    parser.add_argument('--out', help=argparse.SUPPRESS)
+    parser.add_argument('--joints', type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument('--stream', action='store_true', help=argparse.SUPPRESS)
+    parser.add_argument('--quick', action='store_true', help='a check: 1 and 4 axes at 4 ms, 3 s each')
+    parser.add_argument('--axes', type=int, nargs='+', default=[1, 2, 4, 6, 8])
+    parser.add_argument('--periods', type=float, nargs='+', default=[1, 2, 4, 10], help='SYNC periods in ms')
+    parser.add_argument('--seconds', type=float, default=10.0, help='measurement window per case (default 10)')
+    parser.add_argument('--variants', nargs='+', default=['bridge', 'naive'], choices=['bridge', 'naive'])
+    args = parser.parse_args(argv)
+    if args.role == 'bridge':
+        return bridge_role(args.config, args.variant, args.out)
+    if args.role == 'subscriber':
+        return subscriber_role(args.joints, args.out, args.stream)
+    if args.role == 'probe':
+        return probe_role(args.period, args.seconds, args.out)
+    if args.quick:
+        args.axes, args.periods, args.seconds = [1, 4], [4], 3.0
+    from drive_bridge.config import load_bus_config_text
+    from drive_bridge.config.busbudget import budget_of
+    env = {**os.environ, 'PYTHONPATH': str(REPO), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'ROS_DOMAIN_ID': os.environ.get('ROS_DOMAIN_ID') or str(random.randint(30, 99))}
+    with tempfile.TemporaryDirectory(prefix='ros_cycle-') as tmp:
+        work = Path(tmp)
+        env['DRIVE_BRIDGE_CAN_DIR'] = str(work / 'can')
+        print(f'{args.seconds:g} s per case; SYNC/lead/js in ms; skipped = grid points without SYNC of all; '
+              'on time = SYNCs whose every set-point RPDO went out after the previous SYNC; '
+              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
+              "idle = cycles a bare sleep loop in another process skipped meanwhile (the machine's own share); "
+              "'!' = over 70 % of 1 Mbit/s")
+        print(HEADER)
+        for period_ms in args.periods:
+            for axes in args.axes:
+                budget = budget_of(load_bus_config_text(yaml.safe_dump(bus_data(axes, period_ms, 'x'))))
+                results = {}
+                for variant in args.variants:
+                    try:
+                        results[variant] = run_case(axes, period_ms, variant, args.seconds, work, env)
+                        print(row(axes, period_ms, budget.load or 0.0, variant, results[variant]), flush=True)
+                    except Exception as exc:
+                        print(f'{axes:4d} {period_ms:3g} {variant:6} could not run: {exc}', flush=True)
+                if len(results) == 2:
+                    print(ratio_row(results['bridge'], results['naive'], period_ms / 1000), flush=True)
+
+
+if __name__ == '__main__':
+    main(sys.argv[1:])
