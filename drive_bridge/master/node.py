@@ -15,6 +15,7 @@ import canopen
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.families import BootDetection, Liveness, get_family
+from drive_bridge.master.freshness import PdoFreshness
 from drive_bridge.master.guarding import NodeGuard
 from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
@@ -32,6 +33,7 @@ class BootState(str, Enum):
     OPERATIONAL = 'operational'  # configured and started
     FAILED = 'failed'  # boot failed; retried periodically
     LOST = 'lost'  # heartbeat or guarding lost after it was operational
+    STALE = 'stale'  # alive (heartbeat) but a cyclic TPDO stopped: inputs untrusted, axes held
 
 
 @dataclass(frozen=True)
@@ -76,6 +78,7 @@ class NodeRuntime:
         self.process = ProcessImage(config.od, config.rpdo, config.tpdo, self.family.sent_on_write)
         for cob_id in self.process.rx_layouts:
             network.subscribe(cob_id, self.process.on_tpdo)
+        self.freshness = PdoFreshness(self.process.rx_layouts, self.process.rx_counts, master.sync_period)
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
         # node guarding: polled by the supervisor once the boot configured it
@@ -177,6 +180,8 @@ class NodeRuntime:
 
     def set_boot_state(self, state: BootState, error: str = '') -> None:
         with self.lock:
+            if state is BootState.OPERATIONAL and self.boot_state is not BootState.OPERATIONAL:
+                self.freshness.arm(time.monotonic())  # its TPDOs are due from now on
             self.boot_state = state
             self.boot_error = error
         self.worker.enabled = state is BootState.OPERATIONAL
