@@ -345,4 +345,5 @@ class Axis(ModeControl):
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
             following_error=(bool(sw & sm.SW_OMS_13)
                              and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),
-            halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(), message=self._message)
+            halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
+            message=self.node.boot_error if not self.node.available and self.node.boot_error else self._message)
