@@ -82,3 +82,21 @@ def moving(master: Master, joint: str, seconds: float = 0.3) -> bool:
     before = master.axes[joint].snapshot().position
     time.sleep(seconds)
     return abs(master.axes[joint].snapshot().position - before) > 1e-4
+
+
+def demo_bridge(ros, **parameters: object):
+    """The demo bus node on a private channel, in-process, every axis enabled (auto_enable)."""
+    import yaml
+    from rclpy.parameter import Parameter
+
+    from bustools import demo_data
+    from drive_bridge.cia402.statemachine import State
+    from drive_bridge.ros.node import BusNode
+
+    overrides = {'config_yaml': yaml.safe_dump(demo_data(), sort_keys=False), 'auto_enable': True, **parameters}
+    node = BusNode(context=ros.context, parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
+    ros.add(node)
+    node.master.wait_until_operational(10.0)
+    eventually(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10,
+               'every axis enabled')
+    return node
