@@ -19,6 +19,7 @@ class EventKind(str, Enum):
     PDO_FRESH = 'pdo_fresh'
     BUS_ERROR = 'bus_error'
     BUS_BACK = 'bus_back'
+    UNKNOWN_FRAMES = 'unknown_frames'
     ERROR = 'error'
 
 

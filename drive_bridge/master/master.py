@@ -26,6 +26,7 @@ from drive_bridge.master.boot import BootError, boot_node
 from drive_bridge.master.bus import BusHealth, FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
 from drive_bridge.master.events import BusEvent, EventKind, Level
+from drive_bridge.master.flood import UnknownFrames
 from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
@@ -68,6 +69,8 @@ class Master:
         self.tap.add_listener(self.traffic)
         self.bus: TappedBus | None = None
         self.network = canopen.Network()
+        self.unknown_frames = UnknownFrames(self.network.subscribers)  # counted, reported by the supervisor
+        self.tap.add_listener(self.unknown_frames)
         self.nodes: dict[str, NodeRuntime] = {}
         self.axes: dict[str, JointDriver] = {}
         self._by_id: dict[int, NodeRuntime] = {}
@@ -140,6 +143,7 @@ class Master:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
                                                                             period)
+        self.unknown_frames.active = True
         self._start_cycle()
         if cfg.master.heartbeat_producer_ms:
             self._heartbeat_task = self.network.send_periodic(
@@ -224,6 +228,9 @@ class Master:
             now = time.monotonic()
             if self._check_bus(now):
                 continue  # nothing on a dead bus can be judged
+            unknown = self.unknown_frames.report(now)
+            if unknown:
+                self._emit(EventKind.UNKNOWN_FRAMES, Level.WARN, f'bus {self.config.bus.channel}: {unknown}')
             for node in self.nodes.values():
                 self._check_heartbeat(node, now)
                 self._check_guarding(node, now)

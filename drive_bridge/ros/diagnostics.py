@@ -64,7 +64,7 @@ def node_status(node: NodeSnapshot) -> DiagnosticStatus:
         heartbeat_age='never' if node.heartbeat_age is None else _ms(node.heartbeat_age),
         guarding_toggle_errors=node.guarding_toggle_errors,
         sdo_errors=node.sdo_errors, last_sdo_error=node.last_sdo_error, pdo_errors=node.pdo_errors,
-        last_pdo_error=node.last_pdo_error, emcy_count=len(node.emcy),
+        last_pdo_error=node.last_pdo_error, emcy_count=len(node.emcy), emcy_suppressed=node.emcy_suppressed,
         last_emcy='' if last is None else f'0x{last.code:04X} {last.text}')
     return status
 
