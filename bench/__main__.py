@@ -1,4 +1,4 @@
-"""``python -m bench [tracking] [options]``: run a benchmark and print its table."""
+"""``python -m bench [tracking|soak] [options]``: run a benchmark and print its table."""
 from __future__ import annotations
 
 import os
@@ -6,7 +6,7 @@ import sys
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-BENCHMARKS = {'tracking': 'bench.tracking'}
+BENCHMARKS = {'tracking': 'bench.tracking', 'soak': 'bench.soak'}
 
 
 def main() -> None:
