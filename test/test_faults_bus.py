@@ -89,3 +89,26 @@ def test_bus_off_stops_every_stream_reports_once_and_recovers_without_re_enablin
         base.reset_fault(timeout=2.0)
         stream_ramp(master, 'base_joint', 0.02)  # an explicit reset and enable move it again
         assert moving(master, 'base_joint')
+
+
+def test_an_interface_the_master_opened_is_reopened_while_it_keeps_failing(monkeypatch) -> None:
+    import can
+
+    import drive_bridge.master.master as master_module
+    from bustools import running
+    from drive_bridge.sim.faults import FaultyBus
+    opened: list[FaultyBus] = []
+
+    def open_faulty(interface, channel, bitrate=None, **options):  # the interface as python-can opens it
+        bus = FaultyBus(can.Bus(interface=interface, channel=channel, receive_own_messages=False))
+        opened.append(bus)
+        return bus
+    monkeypatch.setattr(master_module, 'open_bus', open_faulty)
+    with running(config_from(demo_data())) as (master, _sim):
+        events = Events(master)
+        opened[0].bus_off(True)  # this interface never recovers: only a new one helps
+        events.wait(EventKind.BUS_ERROR, 3.0)
+        eventually(lambda: len(opened) == 2, 3.0, 'the interface reopened')
+        assert master.bus_reopens == 1 and opened[0]._is_shutdown
+        events.wait(EventKind.BUS_BACK, 3.0)
+        master.wait_until_operational(8.0)
