@@ -8,6 +8,7 @@ import time
 from faulttools import Events, SentTo, moving, stream_ramp
 
 from bustools import config_from, demo_data, eventually, running
+from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.freshness import FRESHNESS_MIN
 from drive_bridge.ros.diagnostics import axis_status, node_status
@@ -92,3 +93,28 @@ def test_heartbeat_lost_mid_motion_stops_only_that_joint() -> None:
         time.sleep(0.2)
         assert master.sync.skipped - skipped < 5
         assert len(events.of(EventKind.HEARTBEAT_LOST)) == 1 and events.all[-1].node_id == 4
+
+
+def test_guarding_lost_mid_motion_stops_only_that_joint() -> None:
+    data = demo_data()
+    data['nodes']['lift_drive'].update(guard_time_ms=40, life_time_factor=3, heartbeat_producer=0)
+    data['simulation'] = {'enabled': True, 'nodes': {'lift_drive': {'heartbeat': False}}}
+    with running(config_from(data)) as (master, sim):
+        assert master.nodes['lift_drive'].liveness.value == 'node guarding'
+        events = Events(master)
+        for joint in (*OTHERS, 'lift_joint'):
+            stream_ramp(master, joint, 0.02)
+        sent = SentTo(master, 4)
+        sim.drive(4).stop_guarding_replies()
+        lost = events.wait(EventKind.GUARDING_LOST, 3.0)
+        assert lost.node_id == 4 and '(lift_drive); its axes are unavailable' in lost.message
+        assert 'node 4' in lost.message
+        assert not master.axes['lift_joint'].snapshot().available
+        assert 'node guarding lost' in master.axes['lift_joint'].snapshot().message
+        assert sent.during(0.2) == 0
+        for joint in OTHERS:
+            assert master.axes[joint].snapshot().available and moving(master, joint)
+        sim.drive(4).stop_guarding_replies(False)
+        events.wait(EventKind.GUARDING_BACK, 3.0)
+        master.wait_until_operational(5.0)
+        assert master.axes['lift_joint'].snapshot().state is not State.OPERATION_ENABLED
