@@ -112,3 +112,33 @@ def test_a_stale_node_shows_on_diagnostics_and_axis_states(ros: RosHarness, brid
         return None
     state = wait_for(lift_state, 5, 'lift_joint unavailable on ~/axis_states')
     assert 'TPDO1 0x184 stale' in state.message and state.halted
+
+
+def test_a_babbling_node_is_rate_limited_on_emcy_and_the_log(ros: RosHarness, bridge) -> None:
+    import can
+    from drive_bridge_interfaces.msg import Emcy
+    from rcl_interfaces.msg import Log
+
+    from drive_bridge.master.flood import EMCY_BURST, EMCY_RATE
+    emcys: list[Emcy] = []
+    logs: list[Log] = []
+    ros.node('flood_emcy').create_subscription(Emcy, f'{NS}/emcy', emcys.append, 1000)
+    ros.node('flood_log').create_subscription(Log, '/rosout', logs.append, 1000)
+    time.sleep(0.3)  # discovery
+    rogue = can.Bus(interface='virtual', channel=bridge.master.config.bus.channel)
+    start = time.monotonic()
+    try:
+        for _ in range(2000):  # as fast as this process can: above a 1 Mbit/s bus's rate
+            rogue.send(can.Message(arbitration_id=0x082, data=b'\x00\x10\x01\x00\x00\x00\x00\x00',
+                                   is_extended_id=False))
+    finally:
+        rogue.shutdown()
+    took = time.monotonic() - start
+    wait_for(lambda: any('EMCY flood' in m.msg for m in logs), 3, 'the flood logged')
+    time.sleep(0.5)
+    bound = EMCY_BURST + EMCY_RATE * (took + 0.5) + 5
+    assert len(emcys) <= bound, (len(emcys), took)
+    assert len([m for m in logs if '0x1000' in m.msg]) <= bound
+    node = next(n for n in bridge.master.snapshot().nodes if n.node_id == 2)
+    assert node.emcy_suppressed >= 2000 - bound
+    assert all(a.snapshot().state is State.OPERATION_ENABLED for a in bridge.master.axes.values())
