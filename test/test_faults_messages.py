@@ -16,7 +16,7 @@ from faulttools import demo_bridge
 from rclpy.action import ActionClient
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import String
+from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from drive_bridge.master.events import EventKind
@@ -118,3 +118,20 @@ def test_an_oversized_goal_is_aborted_with_its_reason(ros: RosHarness, bridge: B
     assert result.error_code == FollowJointTrajectory.Result.INVALID_GOAL
     assert result.error_string.startswith(f'{count} points, more than the limit of {MAX_TRAJECTORY_POINTS}')
     assert not bridge.trajectories.active()
+
+
+@pytest.mark.parametrize('topic, msg, reason', [
+    ('commands', Float64MultiArray(data=[0.0] * 1_000_000), '1000000 value(s) for 4 joint(s)'),
+    ('joint_commands', JointState(name=[f'j{i}' for i in range(100_000)]),
+     '100000 names, more than the 4 joints of this bus'),
+])
+def test_oversized_direct_commands_are_refused_by_their_length(ros: RosHarness, bridge: BusNode, topic, msg,
+                                                               reason: str) -> None:
+    errors = Arrivals(ros, String, f'{NS}/command_errors')
+    publisher = ros.node(f'big_{topic}').create_publisher(type(msg), f'{NS}/{topic}', 10)
+    wait_for(lambda: publisher.get_subscription_count(), 5, 'the bridge subscribed')
+    skipped = bridge.master.sync.skipped
+    publisher.publish(msg)
+    wait_for(lambda: errors.messages, 5, 'the refusal')
+    assert errors.messages[0].data.startswith(f'~/{topic}: refused: {reason}')
+    assert bridge.master.sync.skipped - skipped < 25

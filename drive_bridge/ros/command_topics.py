@@ -112,11 +112,11 @@ class CommandTopics:
         topic = '~/commands'
         if self._inactive(topic):
             return
-        values = list(msg.data)
-        if len(values) != len(self.command_joints):
-            self.refuse(topic, f'{len(values)} value(s) for {len(self.command_joints)} joint(s) '
+        if len(msg.data) != len(self.command_joints):  # before any per-value work
+            self.refuse(topic, f'{len(msg.data)} value(s) for {len(self.command_joints)} joint(s) '
                                f'({", ".join(self.command_joints)})')
             return
+        values = list(msg.data)
         interface = self.params.command_interface
         self._apply(topic, {joint: {interface: value} for joint, value in zip(self.command_joints, values)})
 
@@ -124,6 +124,9 @@ class CommandTopics:
         """Per joint, the field matching its mode: position, velocity or effort (NaN = none)."""
         topic = self.params.joint_commands_topic
         if self._inactive(topic):
+            return
+        if len(msg.name) > len(self.master.axes):  # before any per-name work
+            self.refuse(topic, f'{len(msg.name)} names, more than the {len(self.master.axes)} joints of this bus')
             return
         unknown = [n for n in msg.name if n not in self.master.axes]
         if unknown:
