@@ -10,7 +10,9 @@ from faulttools import Events, SentTo, moving, stream_ramp
 from bustools import config_from, demo_data, eventually, running
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
-from drive_bridge.master.freshness import FRESHNESS_MIN
+from drive_bridge.master.freshness import FRESHNESS_MIN, PdoFreshness
+from drive_bridge.master.pdo import PdoLayout
+from drive_bridge.model import PdoConfig
 from drive_bridge.ros.diagnostics import axis_status, node_status
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
@@ -121,3 +123,25 @@ def test_guarding_lost_mid_motion_stops_only_that_joint() -> None:
         eventually(lambda: master.axes['lift_joint'].snapshot().state is not State.OPERATION_ENABLED, 2.0,
                    'lift_joint disabled after it answers again')
         assert 'enable the axis to move it' in master.axes['lift_joint'].snapshot().message
+
+
+def test_freshness_counts_syncs_so_a_stalled_master_blames_no_drive() -> None:
+    sync_tpdo = PdoLayout(PdoConfig(number=1, cob_id=0x184, transmission=2), 0, ())
+    timer_tpdo = PdoLayout(PdoConfig(number=2, cob_id=0x284, transmission=255, event_timer=10), 0, ())
+    on_change = PdoLayout(PdoConfig(number=3, cob_id=0x384, transmission=255), 0, ())
+    counts = {0x184: 0, 0x284: 0, 0x384: 0}
+    freshness = PdoFreshness({0x184: sync_tpdo, 0x284: timer_tpdo, 0x384: on_change}, counts, 0.004)
+    assert freshness.watched == (0x184, 0x284)  # a TPDO sent only on change has no deadline
+    assert freshness.poll(100.0, 1000) == []  # not armed: the node is not started
+    freshness.arm(0.0, 0)
+    counts[0x284] = 1
+    assert freshness.poll(0.2, 10) == []
+    # 10 s on the clock but only 60 SYNCs sent: the master stalled, the synchronous TPDO is not
+    # blamed; the event-timer TPDO is judged by the clock alone
+    assert [s.number for s in freshness.poll(10.0, 60)] == [2]
+    stale = freshness.poll(10.0, 100)
+    assert [str(s) for s in stale] == ['TPDO1 0x184 stale: none for 10000 ms (expected every 8 ms, limit 400 ms)',
+                                       'TPDO2 0x284 stale: none for 9800 ms (expected every 10 ms, limit 500 ms)']
+    counts[0x184] += 1
+    counts[0x284] += 1
+    assert freshness.poll(10.4, 201) == []

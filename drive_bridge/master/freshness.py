@@ -4,7 +4,8 @@ A heartbeat only says the node's communication is alive; a drive can still stop 
 TPDO (a lost SYNC consumer, a reconfigured PDO, a stuck application). The watchdog knows
 when each TPDO is due (every n-th SYNC, or its event timer) and is polled by the
 supervisor: it reads the receive counters the Notifier already keeps, so the frame path
-gets no extra work.
+gets no extra work. A synchronous TPDO is judged by the SYNCs sent since its last frame,
+not by the clock alone: when the master's own cycle stalls, no drive is blamed for it.
 """
 from __future__ import annotations
 
@@ -50,30 +51,34 @@ class PdoFreshness:
 
     def __init__(self, layouts: Mapping[int, PdoLayout], counts: Mapping[int, int], sync_period: float) -> None:
         self._counts = counts  # the ProcessImage's receive counters, by COB-ID (read only)
-        self._watched: dict[int, tuple[PdoLayout, float, float]] = {}
+        self._watched: dict[int, tuple[PdoLayout, float, float, int]] = {}
         for cob_id, layout in layouts.items():
             period = expected_period(layout, sync_period)
             if period is not None:
-                self._watched[cob_id] = (layout, period, max(FRESHNESS_PERIODS * period, FRESHNESS_MIN))
-        self._seen: dict[int, tuple[int, float]] = {}  # cob -> (count, monotonic time it changed)
+                syncs = FRESHNESS_PERIODS * layout.config.transmission \
+                    if layout.config.transmission in SYNC_TRANSMISSION else 0
+                self._watched[cob_id] = (layout, period, max(FRESHNESS_PERIODS * period, FRESHNESS_MIN), syncs)
+        # cob -> (receive count, monotonic time and SYNC count when it last changed)
+        self._seen: dict[int, tuple[int, float, int]] = {}
 
     @property
     def watched(self) -> tuple[int, ...]:
         return tuple(self._watched)
 
-    def arm(self, now: float) -> None:
+    def arm(self, now: float, syncs: int = 0) -> None:
         """Start the clocks (the node was just started: its TPDOs are due from now on)."""
-        self._seen = {cob: (self._counts.get(cob, 0), now) for cob in self._watched}
+        self._seen = {cob: (self._counts.get(cob, 0), now, syncs) for cob in self._watched}
 
-    def poll(self, now: float) -> list[StalePdo]:
-        """The TPDOs overdue now (empty when all are fresh or the watchdog is not armed)."""
+    def poll(self, now: float, syncs: int = 0) -> list[StalePdo]:
+        """The TPDOs overdue now (empty when all are fresh or the watchdog is not armed);
+        ``syncs``: the SYNCs sent so far."""
         stale = []
-        for cob_id, (count, since) in list(self._seen.items()):
+        for cob_id, (count, since, since_sync) in list(self._seen.items()):
             current = self._counts.get(cob_id, 0)
             if current != count:
-                self._seen[cob_id] = (current, now)
+                self._seen[cob_id] = (current, now, syncs)
                 continue
-            layout, period, limit = self._watched[cob_id]
-            if now - since > limit:
+            layout, period, limit, sync_limit = self._watched[cob_id]
+            if now - since > limit and syncs - since_sync >= sync_limit:
                 stale.append(StalePdo(layout.config.number, cob_id, now - since, period, limit))
         return stale

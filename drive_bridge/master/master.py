@@ -87,6 +87,7 @@ class Master:
         self._boot_threads: dict[str, threading.Thread] = {}
         self.events: list[BusEvent] = []  # recent events (bounded)
         self.started = False
+        self._cycle_count = 0  # SYNCs seen when another node produces them
         self.bus_down = False  # the bus failed (bus-off, interface errors) and has not come back
         self._last_reopen = 0.0
         self.bus_reopens = 0
@@ -139,6 +140,7 @@ class Master:
             self.nodes[node.name] = node
             self._by_id[node.node_id] = node
             node.attach_guard()
+            node.sync_count = self._sync_count
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
@@ -285,10 +287,13 @@ class Master:
         self.bus_reopens += 1
         log.warning('bus %s reopened (attempt %d)', cfg.channel, self.bus_reopens)
 
+    def _sync_count(self) -> int:
+        return self.sync.cycles if self.sync is not None else self._cycle_count
+
     def _check_freshness(self, node: NodeRuntime, now: float) -> None:
         """A node alive by heartbeat whose cyclic TPDO stopped: its axes are held (HALT, so the
         cycle still tells the drive to stay put) and it is unavailable until the TPDO is back."""
-        stale = node.freshness.poll(now)
+        stale = node.freshness.poll(now, self._sync_count())
         if stale and node.boot_state is BootState.OPERATIONAL:
             joints = [a.joint for a in node.config.axes]
             for joint in joints:

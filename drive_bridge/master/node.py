@@ -81,6 +81,7 @@ class NodeRuntime:
         for cob_id in self.process.rx_layouts:
             network.subscribe(cob_id, self.process.on_tpdo)
         self.freshness = PdoFreshness(self.process.rx_layouts, self.process.rx_counts, master.sync_period)
+        self.sync_count: Callable[[], int] = lambda: 0  # SYNCs sent so far (the master sets it)
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
         # node guarding: polled by the supervisor once the boot configured it
@@ -192,7 +193,7 @@ class NodeRuntime:
     def set_boot_state(self, state: BootState, error: str = '') -> None:
         with self.lock:
             if state is BootState.OPERATIONAL and self.boot_state is not BootState.OPERATIONAL:
-                self.freshness.arm(time.monotonic())  # its TPDOs are due from now on
+                self.freshness.arm(time.monotonic(), self.sync_count())  # its TPDOs are due from now on
             self.boot_state = state
             self.boot_error = error
         self.worker.enabled = state is BootState.OPERATIONAL
