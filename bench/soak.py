@@ -1,5 +1,6 @@
 """Soak benchmark: 4 axes streaming trajectories for minutes while faults from the fault
-catalogue are injected at random every few seconds.
+catalogue are injected at random every few seconds (each fault once per pass through the
+catalogue, in a random order, on a random node).
 
 Each round: a few seconds of motion, one fault injected, the bridge's report of it awaited
 (the event or counter that names node and cause), the fault cleared, and service awaited
@@ -290,9 +291,12 @@ def run(seconds: float, seed: int = 1, log: Callable[[str], None] = print) -> So
         rss_start, threads_start = process.memory_info().rss, threading.active_count()
         node_ids = [n.node_id for n in config.nodes]
         end = time.monotonic() + seconds
+        deck: list[str] = []
         while time.monotonic() < end:
             soak.run_for(rng.uniform(*MOVE_SECONDS))
-            name = rng.choice(list(CATALOGUE))
+            if not deck:  # every fault once per pass, in a random order: even a short run sees them all
+                deck = rng.sample(list(CATALOGUE), len(CATALOGUE))
+            name = deck.pop()
             node = rng.choice(node_ids)
             tally = tallies[name]
             tally.injected += 1
