@@ -24,6 +24,7 @@ from can.broadcastmanager import CyclicSendTaskABC, ThreadBasedCyclicSendTask
 
 FrameListener = Callable[[can.Message], None]
 BusFaultListener = Callable[[str], None]
+FAULT_REPORT_INTERVAL = 1.0  # s between two reports of bus faults (each is counted)
 RECV_ERROR_BACKOFF = 0.05  # s the Notifier waits after a failed recv (no busy loop on a dead bus)
 BUS_ERRORS = (can.CanError, OSError, ValueError)  # what python-can interfaces raise on a bad bus
 
@@ -78,6 +79,7 @@ class TappedBus(can.BusABC):
         self.last_error = ''
         self._failing_since = 0.0
         self._last_ok = 0.0
+        self._last_report = -FAULT_REPORT_INTERVAL
         super().__init__(channel=getattr(inner, 'channel', None) or '')  # no filters: the inner bus filters
         self.channel_info = f'tapped {inner.channel_info}'
 
@@ -99,12 +101,16 @@ class TappedBus(can.BusABC):
     # -- health -----------------------------------------------------------------------------
     def _fault(self, what: str, exc: BaseException) -> None:
         text = f'{what} failed on {self._inner.channel_info}: {exc!r}'
+        now = time.monotonic()
         with self._health_lock:
             self.last_error = text
             first = not self._failing_since
             if first:
-                self._failing_since = time.monotonic()
-        if first and self._on_fault is not None:
+                self._failing_since = now
+            report = first and now - self._last_report >= FAULT_REPORT_INTERVAL
+            if report:
+                self._last_report = now
+        if report and self._on_fault is not None:  # counted always, reported at most every second
             self._on_fault(text)
 
     def _ok(self) -> None:
