@@ -52,6 +52,10 @@ class OfflineNode:
     def nmt_state(self) -> str:
         return str(self.state)
 
+    @property
+    def boot_error(self) -> str:
+        return f'heartbeat lost (none for {self.heartbeat_timeout:g} s)' if self.lost else ''
+
     def read(self, index: int, subindex: int = 0) -> int | float | None:
         return self.process.get(index, subindex)
 

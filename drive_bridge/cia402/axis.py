@@ -367,5 +367,6 @@ class Axis(ModeControl):
             following_error=(bool(sw & sm.SW_OMS_13)
                              and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),
             halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
-            message=self._message or self._mode_problem or (
+            message=(self.node.boot_error if not self.node.available and self.node.boot_error else '')
+            or self._message or self._mode_problem or (
                 'velocity estimated from position (no PDO carries 0x606C)' if self.config.estimated_velocity else ''))

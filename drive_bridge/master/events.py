@@ -16,6 +16,11 @@ class EventKind(str, Enum):
     GUARDING_ERROR = 'guarding_error'
     GUARDING_BACK = 'guarding_back'
     UNEXPECTED_BOOT = 'unexpected_boot'
+    PDO_STALE = 'pdo_stale'
+    PDO_FRESH = 'pdo_fresh'
+    BUS_ERROR = 'bus_error'
+    BUS_BACK = 'bus_back'
+    UNKNOWN_FRAMES = 'unknown_frames'
     ERROR = 'error'
 
 

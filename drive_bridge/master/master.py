@@ -26,10 +26,11 @@ from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
 from drive_bridge.master.boot import BootError, boot_node, repeats_identically
-from drive_bridge.master.bus import FrameListener, FrameTap, TappedBus, open_bus
+from drive_bridge.master.bus import BusHealth, FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
 from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.feedback import CycleFeedback
+from drive_bridge.master.flood import UnknownFrames
 from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
@@ -43,6 +44,8 @@ NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
 SUPERVISOR_PERIOD = 0.02
 ADHOC_SDO_TIMEOUT = 0.3
 LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets
+BUS_DOWN_AFTER = 0.1  # s a bus must keep failing to count as down (a single glitch is only counted)
+BUS_REOPEN_AFTER = 1.0  # s of a failing bus before the master reopens an interface it opened
 
 
 @dataclass(frozen=True)
@@ -55,6 +58,7 @@ class BusSnapshot:
     bus_state: str
     channel: str
     traffic: BusTraffic
+    health: BusHealth | None = None  # receive/send errors and error frames (None: bus not open)
 
 
 class Master:
@@ -68,6 +72,8 @@ class Master:
         self.tap.add_listener(self.traffic)
         self.bus: TappedBus | None = None
         self.network = canopen.Network()
+        self.unknown_frames = UnknownFrames(self.network.subscribers)  # counted, reported by the supervisor
+        self.tap.add_listener(self.unknown_frames)
         self.nodes: dict[str, NodeRuntime] = {}
         self.axes: dict[str, JointDriver] = {}
         self._by_id: dict[int, NodeRuntime] = {}
@@ -85,6 +91,10 @@ class Master:
         self._boot_threads: dict[str, threading.Thread] = {}
         self.events: list[BusEvent] = []  # recent events (bounded)
         self.started = False
+        self._cycle_count = 0  # SYNCs seen when another node produces them
+        self.bus_down = False  # the bus failed (bus-off, interface errors) and has not come back
+        self._last_reopen = 0.0
+        self.bus_reopens = 0
 
     # -- listeners ---------------------------------------------------------------------------
     def add_frame_listener(self, listener: FrameListener) -> None:
@@ -131,7 +141,7 @@ class Master:
             return
         cfg = self.config
         raw = self._raw_bus or open_bus(cfg.bus.interface, cfg.bus.channel, cfg.bus.bitrate, **dict(cfg.bus.options))
-        self.bus = TappedBus(raw, self.tap)
+        self.bus = TappedBus(raw, self.tap, on_fault=lambda text: log.warning('%s', text))
         self.network.bus = self.bus
         self.network.connect()
         for node_cfg in cfg.nodes:
@@ -143,11 +153,13 @@ class Master:
                 self._emit(EventKind.CONFIGURED, Level.INFO,
                            f'node {node.node_id} ({node.name}): {node_cfg.pdo_summary}', node)
             node.attach_guard()
+            node.sync_count = self._sync_count
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
                                                                             period)
         self.feedback.watch(self.network, self.nodes.values())
+        self.unknown_frames.active = True
         self._start_cycle()
         if cfg.master.heartbeat_producer_ms:
             self._heartbeat_task = self.network.send_periodic(
@@ -159,7 +171,9 @@ class Master:
 
     def _start_cycle(self) -> None:
         master = self.config.master
-        on_error = (lambda text: self._emit(EventKind.ERROR, Level.ERROR, text))
+        def on_error(text: str) -> None:
+            if not self.bus_down and not (self.bus is not None and self.bus.health().failing):
+                self._emit(EventKind.ERROR, Level.ERROR, text)  # a failing bus: once, as BUS_ERROR
         if master.sync_period > 0 and master.sync_producer == 'external':
             self._cycle_count = 0
             self.network.subscribe(SYNC_COB_ID, self._on_external_sync)
@@ -210,8 +224,8 @@ class Master:
     def _before_sync(self, cycle: int) -> None:
         now = self.sync.scheduled_time if self.sync is not None else time.time()
         for node in self.nodes.values():
-            if not node.available:
-                continue
+            if not node.available and node.boot_state is not BootState.STALE:
+                continue  # a stale node is still sent to: its axes are held by HALT
             axes = [self.axes[a.joint] for a in node.config.axes]
             if not all(axis.ready for axis in axes):
                 continue  # no statusword yet: no controlword can be decided safely
@@ -230,15 +244,94 @@ class Master:
             node.add_state_listener(functools.partial(self._on_node_state, node))
         while not self._stop.wait(SUPERVISOR_PERIOD):
             now = time.monotonic()
+            if self._check_bus(now):
+                continue  # nothing on a dead bus can be judged
+            unknown = self.unknown_frames.report(now)
+            if unknown:
+                self._emit(EventKind.UNKNOWN_FRAMES, Level.WARN, f'bus {self.config.bus.channel}: {unknown}')
             for node in self.nodes.values():
                 self._check_heartbeat(node, now)
                 self._check_guarding(node, now)
+                self._check_freshness(node, now)
                 if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
                     self._start_boot(node)
 
+    def _check_bus(self, now: float) -> bool:
+        """Bus-off or a failing interface: report once, every node unavailable (streams abort,
+        intents dropped); when the bus works again, configure every node again (the axes stay
+        disabled until enabled). True while the bus is down."""
+        if self.bus is None:
+            return False
+        health = self.bus.health()
+        channel = self.config.bus.channel
+        if health.failing and not self.bus_down and now - health.failing_since >= BUS_DOWN_AFTER:
+            self.bus_down = True
+            for node in self.nodes.values():
+                self._reset_axes(node)
+                if node.boot_state in (BootState.OPERATIONAL, BootState.STALE, BootState.LOST):
+                    node.set_boot_state(BootState.LOST, f'bus error: {health.last_error or "controller error state"}')
+            self._emit(EventKind.BUS_ERROR, Level.ERROR,
+                       f'bus {channel}: {health.last_error or "CAN controller in error state (bus-off)"}; '
+                       'every node unavailable, streams stopped, until the bus returns', None)
+        elif health.failing and self.bus_down:
+            self._reopen(now, health.failing_since)
+        elif self.bus_down:
+            self.bus_down = False
+            for node in self.nodes.values():
+                if node.boot_state is not BootState.BOOTING:
+                    self._reset_axes(node)
+                    node.set_boot_state(BootState.WAITING)
+                    node.next_boot_time = 0.0
+            self._emit(EventKind.BUS_BACK, Level.WARN,
+                       f'bus {channel}: working again (receive {health.recv_errors}, send {health.send_errors} '
+                       f'error(s), {health.error_frames} error frame(s) so far); configuring every node again '
+                       '(axes stay disabled until enabled)', None)
+        return self.bus_down
+
+    def _reopen(self, now: float, failing_since: float) -> None:
+        """An interface the master opened itself is reopened while the bus keeps failing."""
+        if self._raw_bus is not None or self.bus is None \
+                or now - max(failing_since, self._last_reopen) < BUS_REOPEN_AFTER:
+            return
+        self._last_reopen = now
+        cfg = self.config.bus
+        try:
+            self.bus.replace_inner(open_bus(cfg.interface, cfg.channel, cfg.bitrate, **dict(cfg.options)))
+        except can.CanError as exc:
+            log.warning('reopening the bus failed: %s', exc)
+            return
+        self.bus_reopens += 1
+        log.warning('bus %s reopened (attempt %d)', cfg.channel, self.bus_reopens)
+
+    def _sync_count(self) -> int:
+        return self.sync.cycles if self.sync is not None else self._cycle_count
+
+    def _check_freshness(self, node: NodeRuntime, now: float) -> None:
+        """A node alive by heartbeat whose cyclic TPDO stopped: its axes are held (HALT, so the
+        cycle still tells the drive to stay put) and it is unavailable until the TPDO is back."""
+        stale = node.freshness.poll(now, self._sync_count())
+        if stale and node.boot_state is BootState.OPERATIONAL:
+            joints = [a.joint for a in node.config.axes]
+            for joint in joints:
+                try:
+                    self.axes[joint].halt(True)
+                except Exception as exc:  # holding goes on for the other joints
+                    log.warning('holding %s: %s', joint, exc)
+            reason = '; '.join(str(s) for s in stale)
+            node.set_boot_state(BootState.STALE, reason)
+            self._emit(EventKind.PDO_STALE, Level.ERROR,
+                       f'node {node.node_id} ({node.name}): {reason} while its heartbeat continues; '
+                       f'joint(s) {", ".join(joints)} held (HALT), streams aborted', node)
+        elif not stale and node.boot_state is BootState.STALE and node.nmt_state is NmtState.OPERATIONAL:
+            node.set_boot_state(BootState.OPERATIONAL)
+            self._emit(EventKind.PDO_FRESH, Level.WARN,
+                       f'node {node.node_id} ({node.name}): TPDOs fresh again; its axes stay held '
+                       '(HALT) until resumed', node)
+
     def _on_node_state(self, node: NodeRuntime) -> None:
         """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots."""
-        if node.bootup_seen.is_set() and node.boot_state in (BootState.OPERATIONAL, BootState.LOST):
+        if node.bootup_seen.is_set() and node.boot_state in (BootState.OPERATIONAL, BootState.LOST,
+                                                             BootState.STALE):
             node.bootup_seen.clear()
             self._reset_axes(node)
             node.set_boot_state(BootState.WAITING)
@@ -251,7 +344,7 @@ class Master:
         if not node.heartbeat_timeout or node.last_heartbeat is None:
             return
         age = now - node.last_heartbeat
-        if node.boot_state is BootState.OPERATIONAL and age > node.heartbeat_timeout:
+        if node.boot_state in (BootState.OPERATIONAL, BootState.STALE) and age > node.heartbeat_timeout:
             node.set_boot_state(BootState.LOST, f'heartbeat lost: none for {age * 1000:.0f} ms')
             self._emit(EventKind.HEARTBEAT_LOST, Level.ERROR,
                        f'node {node.node_id} ({node.name}): heartbeat lost, none for {age * 1000:.0f} ms '
@@ -443,6 +536,7 @@ class Master:
             axes=tuple(axis.snapshot() for axis in self.axes.values()),
             sync=self.sync.stats() if self.sync is not None else None,
             bus_state=self.bus.state.name if self.bus is not None else 'CLOSED',
-            channel=str(self.config.bus.channel), traffic=self.traffic.traffic())
+            channel=str(self.config.bus.channel), traffic=self.traffic.traffic(),
+            health=self.bus.health() if self.bus is not None else None)
 
 

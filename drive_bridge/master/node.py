@@ -15,6 +15,8 @@ import canopen
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.families import BootDetection, Liveness, get_family
+from drive_bridge.master.flood import EMCY_BURST, EMCY_RATE, TokenBucket
+from drive_bridge.master.freshness import PdoFreshness
 from drive_bridge.master.guarding import NodeGuard
 from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
@@ -32,6 +34,7 @@ class BootState(str, Enum):
     OPERATIONAL = 'operational'  # configured and started
     FAILED = 'failed'  # boot failed; retried periodically
     LOST = 'lost'  # heartbeat or guarding lost after it was operational
+    STALE = 'stale'  # alive (heartbeat) but a cyclic TPDO stopped: inputs untrusted, axes held
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,7 @@ class NodeSnapshot:
     emcy: tuple[EmcyEvent, ...]  # newest last
     liveness: str = 'heartbeat'  # heartbeat, node guarding or none
     guarding_toggle_errors: int = 0  # repeated toggle bits seen (node guarding)
+    emcy_suppressed: int = 0  # EMCYs over the rate limit: kept in the history, not reported
 
 
 class NodeRuntime:
@@ -76,6 +80,8 @@ class NodeRuntime:
         self.process = ProcessImage(config.od, config.rpdo, config.tpdo, self.family.sent_on_write)
         for cob_id in self.process.rx_layouts:
             network.subscribe(cob_id, self.process.on_tpdo)
+        self.freshness = PdoFreshness(self.process.rx_layouts, self.process.rx_counts, master.sync_period)
+        self.sync_count: Callable[[], int] = lambda: 0  # SYNCs sent so far (the master sets it)
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
         for key in config.polled:  # inputs no TPDO carries: read by SDO, off the cycle thread
@@ -97,6 +103,8 @@ class NodeRuntime:
         self.bootup_suspected: float | None = None
         self._emcy: deque[EmcyEvent] = deque(maxlen=EMCY_HISTORY)
         self._on_emcy = on_emcy
+        self._on_error = on_error
+        self.emcy_limit = TokenBucket(EMCY_RATE, EMCY_BURST)
         self._state_listeners: list[Callable[[], None]] = []
         self.lock = threading.RLock()
 
@@ -166,7 +174,14 @@ class NodeRuntime:
                 self.nmt_state = NmtState.PRE_OPERATIONAL
         event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
         self._emcy.append(event)
-        self._on_emcy(event)
+        limit = self.emcy_limit
+        if limit.allow(time.monotonic()):
+            self._on_emcy(event)
+        elif not limit.flooding:  # a babbling node: reported once per episode, then counted
+            limit.flooding = True
+            self._on_error(f'node {self.node_id} ({self.name}): EMCY flood, more than {EMCY_RATE:g}/s '
+                           f'(latest 0x{event.code:04X} {event.text}); the excess is counted, not reported '
+                           f'({limit.suppressed} so far)')
         self._notify()
 
     def add_state_listener(self, listener: Callable[[], None]) -> None:
@@ -179,6 +194,8 @@ class NodeRuntime:
 
     def set_boot_state(self, state: BootState, error: str = '') -> None:
         with self.lock:
+            if state is BootState.OPERATIONAL and self.boot_state is not BootState.OPERATIONAL:
+                self.freshness.arm(time.monotonic(), self.sync_count())  # its TPDOs are due from now on
             self.boot_state = state
             self.boot_error = error
         self.worker.enabled = state is BootState.OPERATIONAL
@@ -241,7 +258,8 @@ class NodeRuntime:
                 sdo_errors=self.sdo.errors, last_sdo_error=self.sdo.last_error,
                 pdo_errors=self.process.rx_errors, last_pdo_error=self.process.last_rx_error,
                 emcy=tuple(self._emcy), liveness=self.liveness.value,
-                guarding_toggle_errors=self.guard.status(time.monotonic()).toggle_errors if self.guard else 0)
+                guarding_toggle_errors=self.guard.status(time.monotonic()).toggle_errors if self.guard else 0,
+                emcy_suppressed=self.emcy_limit.suppressed)
 
     def close(self) -> None:
         self.worker.stop()

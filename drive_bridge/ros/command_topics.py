@@ -11,6 +11,7 @@ import time
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
@@ -19,6 +20,12 @@ from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import JointError
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
+from drive_bridge.ros.message_limits import (
+    MalformedMessage,
+    MessageTooLarge,
+    check_trajectory_size,
+    trajectory_counts,
+)
 from drive_bridge.ros.parameters import BridgeParameters
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import TrajectoryError
@@ -44,8 +51,9 @@ class CommandTopics:
         self.errors = node.create_publisher(String, '~/command_errors', QoSProfile(depth=50))
         self._last_log: dict[str, float] = {}
         group = MutuallyExclusiveCallbackGroup()
+        # raw: the size is checked before rclpy builds one Python object per point
         node.create_subscription(JointTrajectory, '~/joint_trajectory', self.on_trajectory, 10,
-                                 callback_group=group)
+                                 callback_group=group, raw=True)
         node.create_subscription(Float64MultiArray, '~/commands', self.on_commands, 10, callback_group=group)
         node.create_subscription(JointState, params.joint_commands_topic, self.on_joint_commands,
                                  qos_profile_sensor_data, callback_group=group)
@@ -67,10 +75,16 @@ class CommandTopics:
         return not self.active
 
     # -- JointTrajectory -----------------------------------------------------------------------
-    def on_trajectory(self, msg: JointTrajectory) -> None:
+    def on_trajectory(self, raw: bytes) -> None:
         topic = '~/joint_trajectory'
         if self._inactive(topic):
             return
+        try:
+            check_trajectory_size(*trajectory_counts(raw))
+        except (MessageTooLarge, MalformedMessage) as exc:
+            self.refuse(topic, str(exc))
+            return
+        msg = deserialize_message(raw, JointTrajectory)
         try:
             handle = self.executor.submit(trajectory_from_msg(msg), topic)
         except TrajectoryError as exc:
@@ -98,11 +112,11 @@ class CommandTopics:
         topic = '~/commands'
         if self._inactive(topic):
             return
-        values = list(msg.data)
-        if len(values) != len(self.command_joints):
-            self.refuse(topic, f'{len(values)} value(s) for {len(self.command_joints)} joint(s) '
+        if len(msg.data) != len(self.command_joints):  # before any per-value work
+            self.refuse(topic, f'{len(msg.data)} value(s) for {len(self.command_joints)} joint(s) '
                                f'({", ".join(self.command_joints)})')
             return
+        values = list(msg.data)
         interface = self.params.command_interface
         self._apply(topic, {joint: {interface: value} for joint, value in zip(self.command_joints, values)})
 
@@ -110,6 +124,9 @@ class CommandTopics:
         """Per joint, the field matching its mode: position, velocity or effort (NaN = none)."""
         topic = self.params.joint_commands_topic
         if self._inactive(topic):
+            return
+        if len(msg.name) > len(self.master.axes):  # before any per-name work
+            self.refuse(topic, f'{len(msg.name)} names, more than the {len(self.master.axes)} joints of this bus')
             return
         unknown = [n for n in msg.name if n not in self.master.axes]
         if unknown:

@@ -29,6 +29,10 @@ def bus_status(snapshot: BusSnapshot, node_name: str) -> DiagnosticStatus:
                   tx_frames=traffic.tx_frames, frames_per_second=f'{traffic.frames_per_second:.0f}',
                   bus_load=f'{traffic.load * 100:.1f} % (nominal, no stuff bits)')
     status.level, status.message = OK, 'bus open'
+    health = snapshot.health
+    if health is not None:
+        values.update(recv_errors=health.recv_errors, send_errors=health.send_errors,
+                      error_frames=health.error_frames, last_bus_error=health.last_error)
     sync = snapshot.sync
     if sync is not None:
         values.update(sync_period=_ms(sync.period), sync_cycles=sync.cycles, sync_skipped=sync.skipped,
@@ -48,7 +52,7 @@ def node_status(node: NodeSnapshot) -> DiagnosticStatus:
     status = DiagnosticStatus(name=f'{PREFIX}: node {node.name}', hardware_id=f'canopen node {node.node_id}')
     if node.boot_state is BootState.OPERATIONAL and node.available:
         status.level, status.message = OK, 'operational'
-    elif node.boot_state in (BootState.FAILED, BootState.LOST):
+    elif node.boot_state in (BootState.FAILED, BootState.LOST, BootState.STALE):
         status.level = ERROR
         status.message = node.boot_error or node.boot_state.value
     else:
@@ -60,7 +64,7 @@ def node_status(node: NodeSnapshot) -> DiagnosticStatus:
         heartbeat_age='never' if node.heartbeat_age is None else _ms(node.heartbeat_age),
         guarding_toggle_errors=node.guarding_toggle_errors,
         sdo_errors=node.sdo_errors, last_sdo_error=node.last_sdo_error, pdo_errors=node.pdo_errors,
-        last_pdo_error=node.last_pdo_error, emcy_count=len(node.emcy),
+        last_pdo_error=node.last_pdo_error, emcy_count=len(node.emcy), emcy_suppressed=node.emcy_suppressed,
         last_emcy='' if last is None else f'0x{last.code:04X} {last.text}')
     return status
 

@@ -24,6 +24,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
 from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.ros.message_limits import MessageTooLarge, check_trajectory_size
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import TrajectoryError
 
@@ -70,6 +71,11 @@ class TrajectoryAction:
 
     async def execute(self, goal: ServerGoalHandle) -> FollowJointTrajectory.Result:
         request = goal.request
+        try:  # before any per-point work
+            check_trajectory_size(len(request.trajectory.joint_names), len(request.trajectory.points))
+        except MessageTooLarge as exc:
+            goal.abort()
+            return self._result(Result.INVALID_GOAL, str(exc))
         joints = list(request.trajectory.joint_names)
         unknown = [j for j in joints if j not in self.master.axes]
         if unknown or not joints:

@@ -109,6 +109,7 @@ class SimulatedSlave(CommFaultInjection):
         self._rtr_notifier: can.Notifier | None = None  # the Notifier whose RTR frames reach this node
         self._sdo_request: bytes | None = None  # the SDO request frame being served
         self.faults = CommFaults(boot_delay=self.options['boot_delay'], sdo_delay=self.options['sdo_delay'])
+        self.frames_sent = 0  # frames this node put on the bus (for frame-loss checks)
         self._timers = TimerThread(f'sim-{node.name}')
         self._local = SimLocalNode(node.node_id, node.od, self._sdo_read, self._sdo_write, self._sdo_respond)
         self._network: canopen.Network | None = None
@@ -362,7 +363,7 @@ class SimulatedSlave(CommFaultInjection):
         return self._nmt is NmtState.OPERATIONAL and not self.faults.muted and not self.faults.drop_rpdos
 
     def _tpdo_allowed(self) -> bool:
-        return self._nmt is NmtState.OPERATIONAL and not self.faults.muted
+        return self._nmt is NmtState.OPERATIONAL and not self.faults.muted and not self.faults.tpdos_stopped
 
     # ---- sending ---------------------------------------------------------------------
     def send(self, cob: int, data: bytes) -> None:
@@ -372,6 +373,7 @@ class SimulatedSlave(CommFaultInjection):
             return
         try:
             network.send_message(cob, data)
+            self.frames_sent += 1
         except Exception as exc:  # bus shut down under us while stopping
             logger.debug('%s: send 0x%03X failed: %s', self.name, cob, exc)
 

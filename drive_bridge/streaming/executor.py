@@ -274,7 +274,8 @@ class TrajectoryExecutor:
                 snapshot = self.axes[joint].snapshot()
                 if snapshot.drive_state is not DriveState.ENABLED or not snapshot.available:
                     emcy = f'; {snapshot.last_emcy}' if snapshot.last_emcy else ''
-                    reason = f'joint {joint} left operation enabled ({snapshot.state_label}){emcy}'
+                    why = f': {snapshot.message}' if not snapshot.available and snapshot.message else ''
+                    reason = f'joint {joint} left operation enabled ({snapshot.state_label}){why}{emcy}'
                     self.stop(handle.joints, reason, 'aborted')
                     break
                 if snapshot.halted:  # the driver stopped the stream itself (e.g. following error)

@@ -1,0 +1,72 @@
+"""Size limits on what a client may send, checked before a message is turned into objects.
+
+rclpy turns a received message into Python objects before any callback sees it, and that
+work grows with the message: one 200,000-point JointTrajectory took seconds and starved
+the SYNC cycle and the supervision of every node. So the trajectory topic is subscribed
+raw (serialized CDR bytes) and :func:`trajectory_counts` reads the joint and point
+counts from the first bytes; only a message within the limits is deserialized.
+"""
+from __future__ import annotations
+
+import struct
+
+from drive_bridge.errors import DriveBridgeError
+from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
+
+MAX_JOINT_NAMES = 64  # far more than one bus has; a longer list is an error, not a command
+ENCAPSULATION = 4  # CDR header (representation id and options); alignment counts from its end
+_LITTLE = {b'\x00\x01', b'\x00\x03'}  # CDR_LE, PL_CDR_LE
+_BIG = {b'\x00\x00', b'\x00\x02'}
+
+
+class MessageTooLarge(DriveBridgeError, ValueError):
+    """A message over a size limit; refused before it is deserialized."""
+
+
+class MalformedMessage(DriveBridgeError, ValueError):
+    """Serialized bytes that are not a message of the expected type."""
+
+
+class _Reader:
+    def __init__(self, raw: bytes) -> None:
+        kind = bytes(raw[:2])
+        if kind not in _LITTLE | _BIG:
+            raise MalformedMessage(f'unknown CDR encapsulation 0x{kind.hex()}')
+        self.raw = raw
+        self.pos = ENCAPSULATION
+        self.uint = struct.Struct('<I' if kind in _LITTLE else '>I')
+
+    def u32(self) -> int:
+        self.pos += -(self.pos - ENCAPSULATION) % 4
+        if self.pos + 4 > len(self.raw):
+            raise MalformedMessage(f'message ends at byte {len(self.raw)}, inside its header')
+        value = int(self.uint.unpack_from(self.raw, self.pos)[0])
+        self.pos += 4
+        return value
+
+    def skip_string(self) -> None:
+        length = self.u32()  # counts the terminating NUL
+        self.pos += length
+
+
+def trajectory_counts(raw: bytes) -> tuple[int, int]:
+    """(joint names, points) of a serialized trajectory_msgs/JointTrajectory."""
+    reader = _Reader(raw)
+    reader.u32()  # header.stamp.sec
+    reader.u32()  # header.stamp.nanosec
+    reader.skip_string()  # header.frame_id
+    joints = reader.u32()
+    if joints > MAX_JOINT_NAMES:
+        return joints, 0
+    for _ in range(joints):
+        reader.skip_string()
+    return joints, reader.u32()
+
+
+def check_trajectory_size(joints: int, points: int) -> None:
+    """MessageTooLarge naming the count and its limit."""
+    if joints > MAX_JOINT_NAMES:
+        raise MessageTooLarge(f'{joints} joint names, more than the limit of {MAX_JOINT_NAMES}')
+    if points > MAX_TRAJECTORY_POINTS:
+        raise MessageTooLarge(f'{points} points, more than the limit of {MAX_TRAJECTORY_POINTS}; '
+                              'send it in shorter pieces (each new trajectory splices onto the running one)')

@@ -1,0 +1,120 @@
+"""Fault catalogue: the bridge process killed with SIGKILL while its joints move. The
+drives, in a process of their own (``drive-bridge sim`` over the ``local`` transport),
+stop by themselves: their heartbeat consumer (0x1016, written by the bridge at boot)
+misses the master's heartbeat and faults them (EMCY 0x8130), so no joint keeps its last
+command. An observer on the bus watches, passively until the kill, by SDO afterwards."""
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+import yaml
+from builtin_interfaces.msg import Duration
+from drive_bridge_interfaces.msg import AxisStates
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from bustools import DEMO, demo_data
+from rostools import RosHarness, wait_for
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec('drive_bridge.cli.sim') is None,
+                                reason='needs drive-bridge sim and the local transport (branch perf)')
+REPO = Path(__file__).resolve().parent.parent
+NODES = (2, 3, 4)
+HEARTBEAT_ERROR = 0x8130  # CiA 301: life guard error or heartbeat error
+SW_FAULT = 0x0008
+
+
+def python(*code_and_args: str) -> list[str]:
+    return [sys.executable, '-c', *code_and_args]
+
+
+def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path) -> None:
+    import canopen
+
+    from drive_bridge.master.bus import open_bus
+    env = {**os.environ, 'PYTHONPATH': str(REPO), 'DRIVE_BRIDGE_CAN_DIR': str(tmp_path)}
+    os.environ['DRIVE_BRIDGE_CAN_DIR'] = str(tmp_path)
+    channel = f'kill-{uuid.uuid4().hex[:6]}'
+    data = demo_data(channel)
+    data['bus']['interface'] = 'local'
+    data['simulation'] = {'enabled': False}
+    config = tmp_path / 'bus.yaml'
+    config.write_text(yaml.safe_dump(data))
+    sim = subprocess.Popen(python('import sys; from drive_bridge.cli.main import main; sys.exit(main(sys.argv[1:]))',
+                                  'sim', str(DEMO), '--interface', 'local', '--channel', channel),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    bridge = None
+    observer = canopen.Network(open_bus('local', channel))
+    try:
+        assert sim.stdout is not None
+        assert [sim.stdout.readline().split()[1] for _ in NODES] == ['base_drive', 'arm_drive', 'lift_drive']
+        frames: list[tuple[float, int, bytes]] = []
+        lock = threading.Lock()
+
+        def record(can_id: int, payload: bytearray, _stamp: float) -> None:
+            with lock:
+                frames.append((time.monotonic(), can_id, bytes(payload)))
+        observer.connect()
+        for node_id in NODES:
+            observer.subscribe(0x80 + node_id, record)  # EMCY
+            observer.subscribe(0x180 + node_id, record)  # TPDO1 (statusword, position)
+        remote = canopen.RemoteNode(2, canopen.import_od(str(REPO / 'drive_bridge/families/data/generic402.eds'), 2))
+        observer.add_node(remote)
+
+        bridge = subprocess.Popen(python('from drive_bridge.cli.bridge import bridge_main; bridge_main()',
+                                         str(config), '--ros-args', '-p', 'auto_enable:=true'),
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+        states: list[JointState] = []
+        ros.node('kill_states').create_subscription(JointState, '/joint_states', states.append, 100)
+        wait_for(lambda: states and len(states[-1].name) == 4, 30, 'joint states of the bridge process')
+        start = dict(zip(states[-1].name, states[-1].position))
+        move = JointTrajectory(joint_names=['base_joint', 'lift_joint'], points=[JointTrajectoryPoint(
+            positions=[start['base_joint'] + 1.0, start['lift_joint'] + 0.2], time_from_start=Duration(sec=8))])
+        publisher = ros.node('kill_traj').create_publisher(JointTrajectory, '/drive_bridge/joint_trajectory', 10)
+        wait_for(lambda: publisher.get_subscription_count(), 10, 'the bridge subscribed')
+        errors: list[String] = []
+        ros.node('kill_errors').create_subscription(String, '/drive_bridge/command_errors', errors.append, 10)
+        axes: list[AxisStates] = []
+        ros.node('kill_axes').create_subscription(AxisStates, '/drive_bridge/axis_states', axes.append, 10)
+        wait_for(lambda: axes and all(a.drive_state == a.DRIVE_ENABLED for a in axes[-1].axes), 20,
+                 'every axis enabled by auto_enable')
+        publisher.publish(move)
+        wait_for(lambda: abs(dict(zip(states[-1].name, states[-1].position))['base_joint'] - start['base_joint'])
+                 > 0.05, 10, f'base_joint moving (command errors: {[e.data for e in errors]})')
+        tpdo = [f for f in frames if f[1] == 0x182][-20:]
+        assert len({f[2] for f in tpdo}) > 5  # the drive reports a changing position: it moves
+
+        bridge.send_signal(signal.SIGKILL)
+        killed = time.monotonic()
+        bridge.wait(5)
+
+        def heartbeat_errors() -> set[int]:
+            with lock:
+                return {cob - 0x80 for t, cob, data in frames if t >= killed and 0x81 <= cob <= 0xFF
+                        and int.from_bytes(data[:2], 'little') == HEARTBEAT_ERROR}
+        wait_for(lambda: heartbeat_errors() == set(NODES), 3, 'EMCY 0x8130 (heartbeat consumer) from every drive')
+        assert time.monotonic() - killed < 2.0  # 300 ms consumer time + scheduling, generous
+        statusword = remote.sdo.upload(0x6041, 0)
+        assert int.from_bytes(statusword, 'little') & SW_FAULT
+        first = remote.sdo.upload(0x6064, 0)
+        time.sleep(0.3)
+        assert remote.sdo.upload(0x6064, 0) == first  # at rest
+    finally:
+        if bridge is not None and bridge.poll() is None:
+            bridge.kill()
+        sim.send_signal(signal.SIGTERM)
+        try:
+            sim.wait(10)
+        finally:
+            sim.kill()
+            observer.disconnect()
