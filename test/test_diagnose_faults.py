@@ -13,9 +13,9 @@ from typing import Any
 
 import can
 import pytest
-from diagnosetools import CONFIG_YAML, NODE, PERIOD, FaultRecording, check_self_contained, record_faults
 
 from bench.diagnose import synthetic
+from diagnosetools import CONFIG_YAML, NODE, PERIOD, FaultRecording, check_self_contained, record_faults
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
 

@@ -19,9 +19,9 @@ from typing import Any
 
 import can
 import pytest
-from diagnosetools import check_self_contained
 
 from configtools import REALDATA
+from diagnosetools import check_self_contained
 from drive_bridge.cli.main import main
 
 TRACES = REALDATA / 'traces'

@@ -9,12 +9,11 @@ from __future__ import annotations
 import threading
 import time
 
-from faulttools import Events, SentTo, moving, running_faulty, stream_ramp
-
 from bustools import config_from, demo_data, eventually
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
 from drive_bridge.ros.diagnostics import bus_status
+from faulttools import Events, SentTo, moving, running_faulty, stream_ramp
 
 
 def test_failing_receives_are_counted_and_the_master_keeps_hearing() -> None:

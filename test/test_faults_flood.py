@@ -11,11 +11,11 @@ from __future__ import annotations
 import time
 
 import can
-from faulttools import Events, moving, stream_ramp
 
 from bustools import config_from, demo_data, eventually, running
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.flood import EMCY_BURST, EMCY_RATE
+from faulttools import Events, moving, stream_ramp
 
 RATE = 8000  # frames/s: an 8-byte frame is about 125 bits at 1 Mbit/s
 SECONDS = 1.0

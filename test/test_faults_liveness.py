@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import time
 
-from faulttools import Events, SentTo, moving, stream_ramp
-
 from bustools import config_from, demo_data, eventually, running
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
@@ -16,6 +14,7 @@ from drive_bridge.model import PdoConfig
 from drive_bridge.ros.diagnostics import axis_status, node_status
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
+from faulttools import Events, SentTo, moving, stream_ramp
 
 CW_HALT = 1 << 8
 OTHERS = ('base_joint', 'shoulder_joint')

@@ -12,7 +12,6 @@ import time
 import pytest
 from builtin_interfaces.msg import Duration
 from drive_bridge_interfaces.action import FollowJointTrajectory
-from faulttools import demo_bridge
 from rclpy.action import ActionClient
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
@@ -23,6 +22,7 @@ from drive_bridge.master.events import EventKind
 from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, trajectory_counts
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
+from faulttools import demo_bridge
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'

@@ -11,12 +11,12 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import AxisStates
 from drive_bridge_interfaces.srv import SdoRead
-from faulttools import demo_bridge
 from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from drive_bridge.cia402.statemachine import State
+from faulttools import demo_bridge
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'

@@ -7,13 +7,13 @@ from __future__ import annotations
 import dataclasses
 
 import pytest
-from faulttools import Events, moving, stream_ramp
 
 from bustools import config_from, demo_data, eventually
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.sim import SimulatedBus
+from faulttools import Events, moving, stream_ramp
 
 
 def quick_retry_config():

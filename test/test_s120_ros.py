@@ -20,13 +20,13 @@ import yaml
 from drive_bridge_interfaces.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import AxisState, JointTolerance
 from drive_bridge_interfaces.srv import ParamRead, SetMode
-from nodebench import NS, NodeBench, point
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
 from bustools import unique_channel
+from nodebench import NS, NodeBench, point
 from rostools import RosHarness, wait_for
 
 REPO = Path(__file__).resolve().parent.parent

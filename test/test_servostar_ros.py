@@ -16,12 +16,12 @@ import yaml
 from drive_bridge_interfaces.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import AxisState, JointTolerance
 from drive_bridge_interfaces.srv import ParamRead, ParamWrite, SetMode
-from nodebench import NS, NodeBench, point
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from trajectory_msgs.msg import JointTrajectory
 
 from bustools import unique_channel
+from nodebench import NS, NodeBench, point
 from rostools import RosHarness, wait_for
 
 REPO = Path(__file__).resolve().parent.parent

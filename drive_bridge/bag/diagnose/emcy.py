@@ -47,7 +47,7 @@ class EmcyTimeline:
             return
         self.last_fault[node] = record
         severity = _SEVERITY[event.severity]
-        self.ctx.add(severity, t, node, record.text, self._cause(event), 'emcy', slot=event.slot or 0)
+        self.ctx.add(severity, t, node, record.text, self._cause(event), 'emcy', slot=event.slot)
 
     @staticmethod
     def _cause(event: EmcyEvent) -> str:

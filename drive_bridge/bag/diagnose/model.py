@@ -83,10 +83,15 @@ class Context:
         info = self.nodes.get(node_id)
         return f'node {node_id}' + (f' ({info.name})' if info and info.name else '')
 
-    def joint(self, node_id: int | None, slot: int = 0) -> str | None:
+    def joint(self, node_id: int | None, slot: int | None = 0) -> str | None:
+        """The joint of an axis slot; ``slot`` None (the node as a whole): all its joints."""
         info = self.nodes.get(node_id) if node_id is not None else None
-        return info.joints.get(slot) if info else None
+        if not info:
+            return None
+        if slot is None:
+            return ', '.join(info.joints[k] for k in sorted(info.joints)) or None
+        return info.joints.get(slot)
 
     def add(self, severity: Severity, t: float, node: int | None, what: str, cause: str = '',
-            kind: str = '', slot: int = 0) -> None:
+            kind: str = '', slot: int | None = None) -> None:
         self.findings.append(Finding(severity, t - self.t0, node, what, cause, self.joint(node, slot), kind))

@@ -77,7 +77,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
         'sdo': {'transactions': sdo_rows(d), 'unpaired_responses': d.sdo.unpaired_responses},
         'emcy': [{'time': round(r.time, 6), 'node': r.node, 'code': f'0x{r.event.code:04X}',
                   'register': f'0x{r.event.register:02X}', 'text': r.text, 'severity': r.event.severity.value,
-                  'joint': d.ctx.joint(r.node, r.event.slot or 0)} for r in d.emcy.records],
+                  'joint': d.ctx.joint(r.node, r.event.slot)} for r in d.emcy.records],
         'cia402': [{'node': a.node, 'slot': a.slot, 'joint': d.ctx.joint(a.node, a.slot),
                     'state': a.state.label, 'commands': a.commands, 'commands_not_followed': a.failed,
                     'modes': [{'time': round(t, 6), 'mode': mode_name(m)} for t, m in a.modes],

@@ -203,8 +203,9 @@ def _trim(txn: SdoTransaction, unused: int) -> None:
         del txn.data[-unused:]
 
 
-def axis_slot(index: int) -> int:
-    return (index - 0x6000) // 0x800 if 0x6000 <= index < 0xA000 else 0
+def axis_slot(index: int) -> int | None:
+    """The axis slot of a CiA 402 object (0x6000 + 0x800 per slot); None: the node's own."""
+    return (index - 0x6000) // 0x800 if 0x6000 <= index < 0xA000 else None
 
 
 def ctx_label(ctx: Context, txn: SdoTransaction) -> str:
