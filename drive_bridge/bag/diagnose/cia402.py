@@ -121,7 +121,10 @@ class Cia402Axes:
         if axis.pending is not None and axis.pending.observed and t - axis.pending.time > STATE_SWITCH_S:
             self._failed(axis, axis.pending)
         axis.commands += 1
-        axis.pending = None if axis.state in expected else Command(t, value, name, expected, axis.state)
+        # In Fault only a fault reset leads anywhere (CiA 402 transition 15): any other command
+        # (a master disabling the axis after the fault) is expected to leave it there.
+        in_fault = axis.state is State.FAULT and name != 'fault reset'
+        axis.pending = None if axis.state in expected or in_fault else Command(t, value, name, expected, axis.state)
 
     def _failed(self, axis: AxisTrack, command: Command) -> None:
         axis.pending = None

@@ -252,7 +252,7 @@ class Engine:
                 d.ctx.add(Severity.WARNING, d.t0, node.node_id, f'configured node {node.name} sent no frame',
                           'it is off the bus, has another node id, or was not powered', 'config-node-missing')
         for node_id in seen:
-            if node_id not in configured:
+            if node_id not in configured and node_id != config.master.node_id:  # not the master's heartbeat
                 d.ctx.add(Severity.INFO, d.t0, node_id, 'node on the bus that the config does not name',
                           'another device on the bus (or a drive with a wrong node id)', 'config-node-extra')
 
