@@ -34,6 +34,9 @@ COUNTS = 4096  # counts per revolution, for every file
 SCALE = {'scale_pos_from_dev': 2 * math.pi / COUNTS, 'scale_pos_to_dev': COUNTS / (2 * math.pi),
          'scale_vel_from_dev': 2 * math.pi / COUNTS, 'scale_vel_to_dev': COUNTS / (2 * math.pi)}
 PATH_TOLERANCE = 0.02  # rad between the desired and the reported position, 95 % of the samples
+# a position read by SDO (no PDO can carry 0x6064) is up to a poll period and a queued SDO old:
+# near the trajectory's peak velocity a loaded machine showed 0.021 rad
+POLLED_PATH_TOLERANCE = 0.04
 PATH_LIMIT = 0.08  # rad, every sample (a late cycle on a loaded 2-core machine)
 GOAL_TOLERANCE = 0.004  # rad at the end (a few counts)
 STEP = 0.2  # rad, in 0.5 s
@@ -153,7 +156,8 @@ def test_a_drive_from_its_eds_follows_trajectories_through_ros(ros_module: RosHa
                   if (d := bridge.trajectories.desired(joint, stream_time(t))) is not None]
         errors.sort()
         print(f'{name}: path error 95 % {errors[int(0.95 * len(errors))]:.4f} rad, max {errors[-1]:.4f} rad')
-        assert len(errors) > 10 and errors[int(0.95 * len(errors))] < PATH_TOLERANCE and errors[-1] < PATH_LIMIT, \
+        tolerance = POLLED_PATH_TOLERANCE if '6064' in polled else PATH_TOLERANCE
+        assert len(errors) > 10 and errors[int(0.95 * len(errors))] < tolerance and errors[-1] < PATH_LIMIT, \
             (name, errors[int(0.95 * len(errors))], errors[-1])
         if '606C' not in tpdo:  # no PDO carries the velocity: derived from the position, and said so
             assert axis.snapshot().message == 'velocity estimated from position (no PDO carries 0x606C)'
