@@ -45,7 +45,23 @@ TOOL = Path(sys.executable).parent / 'drive-bridge'
 AMPLITUDE = 0.3  # rad
 FREQUENCY = 0.5  # Hz
 WARMUP = 1.0  # s of streaming before the window opens
-RPDO_SETPOINT = 0x300  # RPDO 2 of the generic 402 maps: target position + velocity
+# the RPDO carrying the set-point (target position): RPDO 2 of the generic 402 family's default
+# maps (target position + velocity), RPDO 1 of the compact maps (controlword + target position)
+RPDO_SETPOINT = {'default': 0x300, 'compact': 0x200}
+MAPS = tuple(RPDO_SETPOINT)
+
+
+def _entries(*indices: int) -> list[dict[str, int]]:
+    return [{'index': index, 'sub_index': 0} for index in indices]
+
+
+# One RPDO and one TPDO per axis and cycle: what a CSP axis needs each SYNC (the statusword and
+# the mode display go on change, refreshed every 100 ms; the mode is written by SDO).
+COMPACT_PDOS = {
+    'rpdo': {1: {'transmission': 1, 'mapping': _entries(0x6040, 0x607A)}},
+    'tpdo': {1: {'transmission': 1, 'mapping': _entries(0x6064, 0x606C)},
+             2: {'transmission': 255, 'event_timer': 100, 'mapping': _entries(0x6041, 0x6061)}},
+}
 SYNC_ID = 0x080
 
 
@@ -58,16 +74,22 @@ def motion_velocity(t: float, k: int) -> float:
     return AMPLITUDE * 2 * math.pi * FREQUENCY * math.sin(2 * math.pi * FREQUENCY * t) * (1 + 0.1 * k)
 
 
-def bus_data(axes: int, period_ms: float, channel: str) -> dict[str, Any]:
+def bus_data(axes: int, period_ms: float, channel: str, maps: str = 'default') -> dict[str, Any]:
+    pdos = COMPACT_PDOS if maps == 'compact' else {}
     return {
         'bus': {'interface': 'local', 'channel': channel, 'bitrate': 1_000_000, 'allow_overload': True},
         'master': {'node_id': 127, 'sync_period': round(period_ms * 1000), 'heartbeat_producer': 100},
-        'nodes': {f'drive{i}': {'node_id': i, 'family': 'generic_402', 'heartbeat_producer': 100,
+        'nodes': {f'drive{i}': {'node_id': i, 'family': 'generic_402', 'heartbeat_producer': 100, **pdos,
                                 'axes': [{'joint': f'j{i}', 'mode': 'csp',
                                           'scaling': {'counts_per_revolution': 65536, 'rated_torque': 1.0},
                                           'limits': {'max_velocity': 5.0}}]}
                   for i in range(1, axes + 1)},
     }
+
+
+def _map_with(table: Any, index: int) -> Any:
+    """The PDO map of canopen's ``table`` (RemoteNode.rpdo/tpdo) that carries ``index`` (or None)."""
+    return next((m for m in table.map.values() if m.enabled and any(v.index == index for v in m.map)), None)
 
 
 def _pct(values: list[float], q: float) -> float:
@@ -198,8 +220,13 @@ def _make_naive(base: type) -> type:
                         pdo_map.save()
                 axis = {'node': remote, 'k': k, 'scaling': cfg.axes[0].scaling, 'name': cfg.axes[0].joint,
                         'sw': 0, 'pos': None, 'stamp': 0.0, 'start': None}
-                remote.tpdo[1].add_callback(lambda m, a=axis: a.update(sw=m[0x6041].raw))
-                remote.tpdo[2].add_callback(lambda m, a=axis: a.update(pos=m[0x6064].raw, stamp=m.timestamp))
+                _map_with(remote.tpdo, 0x6041).add_callback(lambda m, a=axis: a.update(sw=m[0x6041].raw))
+                _map_with(remote.tpdo, 0x6064).add_callback(
+                    lambda m, a=axis: a.update(pos=m[0x6064].raw, stamp=m.timestamp))
+                axis['control'], axis['target'] = _map_with(remote.rpdo, 0x6040), _map_with(remote.rpdo, 0x607A)
+                axis['mode'] = _map_with(remote.rpdo, 0x6060)
+                if axis['mode'] is None:
+                    remote.sdo[0x6060].raw = 8  # csp, once: no RPDO carries the mode
                 self.axes.append(axis)
             for axis in self.axes:
                 axis['node'].nmt.state = 'OPERATIONAL'
@@ -215,7 +242,7 @@ def _make_naive(base: type) -> type:
             msg = JointState()
             enabled = 0
             for axis in self.axes:
-                remote, sw = axis['node'], axis['sw']
+                sw = axis['sw']
                 if axis['pos'] is None:
                     continue
                 state = sw & 0x6F
@@ -230,11 +257,12 @@ def _make_naive(base: type) -> type:
                 else:
                     t = now - self.t0 if self.t0 is not None else 0.0
                     target = axis['start'] + axis['scaling'].position_to_device(motion(t, axis['k']))
-                remote.rpdo[1][0x6040].raw = cw
-                remote.rpdo[1][0x6060].raw = 8
-                remote.rpdo[2][0x607A].raw = int(target)
-                remote.rpdo[1].transmit()
-                remote.rpdo[2].transmit()
+                axis['control'][0x6040].raw = cw
+                if axis['mode'] is not None:
+                    axis['mode'][0x6060].raw = 8
+                axis['target'][0x607A].raw = int(target)
+                for pdo_map in {id(m): m for m in (axis['control'], axis['mode'], axis['target']) if m}.values():
+                    pdo_map.transmit()
                 msg.name.append(axis['name'])
                 msg.position.append(axis['scaling'].position_to_si(axis['pos']))
             if enabled == len(self.axes) and self.t0 is None:
@@ -343,10 +371,11 @@ def _expect(process: subprocess.Popen[str], word: str, what: str, timeout: float
         raise RuntimeError(f'{what} did not say {word!r} within {timeout:.0f} s (got {result!r})')
 
 
-def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Path, env: dict[str, str]) -> dict:
+def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Path, env: dict[str, str],
+             maps: str = 'default') -> dict:
     channel = f'b{uuid.uuid4().hex[:6]}'
     config = work / f'{channel}.yaml'
-    config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel)))
+    config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps)))
     me = [sys.executable, '-m', 'bench.ros_cycle']
     log = work / f'{channel}.log'
     sim = _popen([str(TOOL), 'sim', str(config)], env, log)
@@ -394,15 +423,17 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
                 process.wait(10)
             except subprocess.TimeoutExpired:
                 process.kill()
-    return analyse(data, [s for s in states if opened <= s[0] <= closed], axes, period_ms / 1000)
+    return analyse(data, [s for s in states if opened <= s[0] <= closed], axes, period_ms / 1000,
+                   RPDO_SETPOINT[maps])
 
 
-def analyse(data: dict, states: list[list[float]], axes: int, period: float) -> dict:
+def analyse(data: dict, states: list[list[float]], axes: int, period: float,
+            setpoint_cob: int = RPDO_SETPOINT['default']) -> dict:
     frames = data['frames']
     syncs = [t for t, can_id, sent in frames if sent and can_id == SYNC_ID]
     intervals = [b - a for a, b in zip(syncs, syncs[1:])]
     skipped = sum(max(0, round(iv / period) - 1) for iv in intervals)
-    setpoints = [(t, can_id) for t, can_id, sent in frames if sent and RPDO_SETPOINT < can_id <= RPDO_SETPOINT + 127]
+    setpoints = [(t, can_id) for t, can_id, sent in frames if sent and setpoint_cob < can_id <= setpoint_cob + 127]
     on_time = 0
     leads: list[float] = []
     i = 0
@@ -473,6 +504,9 @@ def main(argv: list[str]) -> None:
     parser.add_argument('--periods', type=float, nargs='+', default=[1, 2, 4, 10], help='SYNC periods in ms')
     parser.add_argument('--seconds', type=float, default=10.0, help='measurement window per case (default 10)')
     parser.add_argument('--variants', nargs='+', default=['bridge', 'naive'], choices=['bridge', 'naive'])
+    parser.add_argument('--maps', choices=MAPS, default='default',
+                        help="PDO maps: the family's default (2 RPDOs + 2 TPDOs per axis) or compact (1 + 1 "
+                             'per cycle, the statusword on change)')
     args = parser.parse_args(argv)
     if args.role == 'bridge':
         return bridge_role(args.config, args.variant, args.out)
@@ -497,11 +531,11 @@ def main(argv: list[str]) -> None:
         print(HEADER)
         for period_ms in args.periods:
             for axes in args.axes:
-                budget = budget_of(load_bus_config_text(yaml.safe_dump(bus_data(axes, period_ms, 'x'))))
+                budget = budget_of(load_bus_config_text(yaml.safe_dump(bus_data(axes, period_ms, 'x', args.maps))))
                 results = {}
                 for variant in args.variants:
                     try:
-                        results[variant] = run_case(axes, period_ms, variant, args.seconds, work, env)
+                        results[variant] = run_case(axes, period_ms, variant, args.seconds, work, env, args.maps)
                         print(row(axes, period_ms, budget.load or 0.0, variant, results[variant]), flush=True)
                     except Exception as exc:
                         print(f'{axes:4d} {period_ms:3g} {variant:6} could not run: {exc}', flush=True)
