@@ -306,8 +306,12 @@ class Axis(ModeControl):
         self._go_to(State.QUICK_STOP_ACTIVE, timeout)
 
     def halt(self, on: bool = True) -> None:
-        """The controlword HALT bit (8): the drive decelerates and stays enabled."""
+        """The controlword HALT bit (8): the drive decelerates and stays enabled. Released in
+        IP with no stream feeding the drive, its buffer is cleared first: points left queued
+        (a stream aborted by a buffer fault) would otherwise run on their own."""
         self._require_available()
+        if not on and self._halt:
+            self._clear_unfed_buffer()
         with self._cond:
             self._halt = on
             if on:

@@ -303,6 +303,15 @@ class ModeControl:
             if self.node.has_object(*self.key[name]):
                 self.node.sdo_write(*self.key[name], value)
 
+    def _clear_unfed_buffer(self) -> None:
+        """Clear the drive's interpolation buffer (0x60C4:6 = 0, 1) if the axis is in IP and
+        no stream feeds it: nothing the bridge still wants is queued there."""
+        with self._cond:
+            unfed = self._mode == Mode.INTERPOLATED_POSITION and self._feeder is None and self._source is None
+        if unfed and self.node.has_object(*self.key['ip_clear']):
+            for value in (0, 1):
+                self.node.sdo_write(*self.key['ip_clear'], value)
+
     def stop_deceleration(self) -> float:
         """Deceleration (SI, > 0) for a controlled stop: the joint's max_acceleration limit,
         else the drive's profile deceleration 0x6084 (read once), else 1 unit/s^2."""

@@ -221,7 +221,8 @@ class TrajectoryExecutor:
     def on_emcy(self, event: EmcyEvent) -> None:
         """A drive reporting its interpolation buffer ran dry or overflowed: abort the
         stream of its joints and hold them with HALT (safe: the drive decelerates and stays
-        enabled; 'resume' clears it)."""
+        enabled; 'resume' clears it). The feeder is detached: on resume the axis then clears
+        the points an overflow left queued, so they never run."""
         joints = [j for j, a in self.axes.items() if a.is_stream_fault(event) and self.strategy(j) == 'pvt']
         if not joints:
             return
@@ -230,6 +231,7 @@ class TrajectoryExecutor:
             feeder = self._feeders.get(joint)
             if feeder is not None:
                 feeder.ended = True
+            self.axes[joint].set_buffer_feeder(None)
             self.axes[joint].halt(True)
 
     # -- stopping and supervision -------------------------------------------------------------
