@@ -86,6 +86,20 @@ def test_import_stores_the_config_and_its_eds(tmp_path: Path) -> None:
     assert bag.files == {'eds/io.eds': eds.read_bytes()}
 
 
+def test_a_config_whose_dcf_is_outside_its_directory_decodes_and_diagnoses_from_the_bag(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The shipped vendor examples name their EDS as ../../shared/...: the bag stores it under that
+    path and the stored config loads again (replay --decode, diagnose) without the original files."""
+    config = ROOT / 'config' / 'maxon_epos4_example.yaml'
+    bag = tmp_path / 'imp331'
+    trace = TRACES / 'ros2_canopen_issue331_cia402_velocity_enable_excerpt.log'
+    assert main(['import', str(trace), '--config', str(config), '-o', str(bag), '-q']) == 0
+    assert list(open_recording(bag).files) == ['../../shared/realdata/eds/maxon_epos4_0x1018.eds']
+    assert main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'x')]) == 0, capsys.readouterr().err
+    assert main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--no-progress']) == 0, \
+        capsys.readouterr().err
+
+
 def test_a_config_whose_nodes_are_not_in_the_trace_is_warned(tmp_path: Path) -> None:
     config = tmp_path / 'bus.yaml'
     config.write_text('bus: {interface: virtual, channel: x}\nnodes:\n  far: {node_id: 77, family: generic_402}\n')

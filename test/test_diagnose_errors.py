@@ -6,6 +6,7 @@ import io
 import json
 from pathlib import Path
 
+import can
 import pytest
 
 from configtools import REALDATA
@@ -116,3 +117,22 @@ def test_error_frames_are_a_finding(tmp_path: Path) -> None:
     assert data['recording']['error_frames'] == 2
     [finding] = [f for f in data['findings'] if f['kind'] == 'error-frames']
     assert finding['what'] == '2 CAN error frame(s)' and finding['time'] == 0.5
+
+
+@pytest.mark.parametrize('key', ['/ABS/evil.eds', '../../../../../../../../ABS/evil.eds', 'a/../../evil.eds'])
+def test_a_stored_file_key_never_writes_outside_the_temporary_directory(tmp_path: Path, key: str) -> None:
+    """A bag names its stored files; diagnose (and decode) write them only inside their temp dir."""
+    from drive_bridge.bag.recorder import Recorder
+    outside = tmp_path / 'outside'
+    outside.mkdir()
+    key = key.replace('/ABS', str(outside))
+    bag = tmp_path / 'bag'
+    config = 'bus: {interface: virtual, channel: x}\nnodes:\n  io: {node_id: 5, family: generic_301}\n'
+    recorder = Recorder(bag, config_yaml=config, files={key: b'[FileInfo]\n'})
+    recorder.on_frame(can.Message(arbitration_id=0x705, data=b'\x05', timestamp=1.0))
+    recorder.stop()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--no-progress'])
+        main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'decoded')])
+    assert not list(outside.iterdir()) and not (tmp_path / 'evil.eds').exists()
+    assert not list(tmp_path.parent.glob('evil.eds'))

@@ -8,6 +8,7 @@ for the GIL. Memory is bounded by ``queue_frames`` (frames and messages queued).
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections import deque
@@ -165,16 +166,16 @@ class Recorder:
 def config_files(config: BusConfig) -> dict[str, bytes]:
     """The EDS/DCF files of the config's nodes, by their path relative to the config's directory
     (as the config names them), else by file name (e.g. a family's shipped EDS)."""
-    base = config.path.resolve().parent if config.path is not None else Path.cwd()
+    base = os.path.abspath(config.path.parent if config.path is not None else Path.cwd())
     package = Path(__file__).resolve().parents[1]
     files: dict[str, bytes] = {}
     for node in config.nodes:
         if node.eds_path is None:
             continue
-        path = node.eds_path.resolve()
+        path = node.eds_path
         name = path.name
-        if path.is_relative_to(base) and not path.is_relative_to(package):
-            name = str(path.relative_to(base))
+        if not path.resolve().is_relative_to(package):  # the config's own path: '../../shared/x.dcf'
+            name = Path(os.path.relpath(os.path.abspath(path), base)).as_posix()  # symlinks as the OS reads
         try:
             files[name] = path.read_bytes()
         except OSError as exc:
