@@ -136,3 +136,20 @@ def test_a_stored_file_key_never_writes_outside_the_temporary_directory(tmp_path
         main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'decoded')])
     assert not list(outside.iterdir()) and not (tmp_path / 'evil.eds').exists()
     assert not list(tmp_path.parent.glob('evil.eds'))
+
+
+def test_times_going_backwards_and_ids_above_0x7ff_are_findings_not_crashes(tmp_path: Path) -> None:
+    path = tmp_path / 'odd.log'
+    path.write_text('(10.000000) can0 705#05\n(10.500000) can0 185#0102\n(9.000000) can0 705#05\n'
+                    '(9.200000) can0 705#05\n(11.000000) can0 705#05\n(11.100000) can0 9AB#01\n'
+                    '(11.200000) can0 800#\n(12.000000) can0 705#05\n')
+    js = tmp_path / 'r.json'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
+    data = json.loads(js.read_text())
+    kinds = [f['kind'] for f in data['findings']]
+    assert kinds.count('clock-backwards') == 1 and kinds.count('invalid-id') == 1
+    [back] = [f for f in data['findings'] if f['kind'] == 'clock-backwards']
+    [invalid] = [f for f in data['findings'] if f['kind'] == 'invalid-id']
+    assert back['what'] == 'clock went back 1 times' and invalid['what'].startswith('2 frame(s)')
+    assert data['recording']['duration_s'] == pytest.approx(2.0)
