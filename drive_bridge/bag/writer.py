@@ -211,6 +211,7 @@ class BagWriter:
             raise BagError(f'{self.path / name}: cannot create split: {exc.strerror}') from exc
         self._mcap = Writer(self._stream, chunk_size=CHUNK_BYTES, compression=self._compression)
         self._mcap.start(profile='ros2', library='drive_bridge')
+        self._stream.flush()  # the magic and header on disk now: a recorder killed at once leaves an MCAP file
         self._channels = {}
         self._schemas = {}
         self._split_bytes = 0
