@@ -98,6 +98,9 @@ def test_a_config_whose_dcf_is_outside_its_directory_decodes_and_diagnoses_from_
     assert main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'x')]) == 0, capsys.readouterr().err
     assert main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--no-progress']) == 0, \
         capsys.readouterr().err
+    decoded = tmp_path / 'decoded'  # a trace decoded with --config stores the config's EDS too
+    assert main(['replay', str(trace), '--decode', '--config', str(config), '-o', str(decoded)]) == 0
+    assert open_recording(decoded).files == open_recording(bag).files
 
 
 def test_a_config_whose_nodes_are_not_in_the_trace_is_warned(tmp_path: Path) -> None:

@@ -67,13 +67,15 @@ def _onto(args: argparse.Namespace, recording: Recording) -> int:
 def _decode(args: argparse.Namespace, recording: Recording) -> int:
     from drive_bridge.bag.decoded_msgs import Topics
     from drive_bridge.bag.offline import decode_into, recording_config
+    from drive_bridge.bag.recorder import config_files
     from drive_bridge.bag.writer import BagWriter
 
     if args.output is None:
         raise BagError('replay --decode: give the bag to write with -o OUTPUT')
     config = recording_config(recording, args.config)
     config_yaml = args.config.read_text(encoding='utf-8') if args.config is not None else recording.config_yaml
-    writer = BagWriter(args.output, config_yaml=config_yaml, files=recording.files)
+    files = config_files(config) if args.config is not None else recording.files  # the config's EDS with it
+    writer = BagWriter(args.output, config_yaml=config_yaml, files=files)
     try:
         with tqdm(unit=' frames', disable=args.quiet, desc='decode') as bar:
             stats = decode_into(recording.frames(), config, writer, Topics(args.namespace.rstrip('/')),
