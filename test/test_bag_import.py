@@ -103,6 +103,19 @@ def test_a_config_whose_dcf_is_outside_its_directory_decodes_and_diagnoses_from_
     assert open_recording(decoded).files == open_recording(bag).files
 
 
+def test_a_can_fd_frame_and_an_empty_trace_are_refused(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    fd = tmp_path / 'fd.log'
+    fd.write_text('(1.000000) can0 701#05\n(1.100000) can0 181##1001122334455667788990011\n')
+    assert main(['import', str(fd), '-o', str(tmp_path / 'a'), '-q']) == 2
+    assert 'fd.log: frame 2 (id 0x181 at 1.100000) is a CAN FD frame' in capsys.readouterr().err
+    empty = tmp_path / 'empty.log'
+    empty.write_text('')
+    assert main(['import', str(empty), '-o', str(tmp_path / 'b'), '-q']) == 2
+    assert 'empty.log: the trace holds no frames' in capsys.readouterr().err
+    assert not (tmp_path / 'a').exists() and not (tmp_path / 'b').exists()
+
+
 def test_a_config_whose_nodes_are_not_in_the_trace_is_warned(tmp_path: Path) -> None:
     config = tmp_path / 'bus.yaml'
     config.write_text('bus: {interface: virtual, channel: x}\nnodes:\n  far: {node_id: 77, family: generic_402}\n')

@@ -126,6 +126,7 @@ class BagWriter:
         self.splits: list[SplitInfo] = []              # closed splits
         self.bytes_written = 0                         # payload + record overhead, whole bag
         self.frames = 0
+        self.messages = 0  # all topics' messages: read from other threads (``topics`` changes under them)
         self._stream: IO[bytes] | None = None
         self._mcap: Writer | None = None
         self._channels: dict[str, int] = {}
@@ -154,6 +155,7 @@ class BagWriter:
         assert self._mcap is not None
         self._mcap.add_message(channel, timestamp_ns, cdr, timestamp_ns)
         split.count += 1
+        self.messages += 1
         split.topics[topic] = split.topics.get(topic, 0) + 1
         split.start_ns = min(split.start_ns, timestamp_ns)
         split.end_ns = max(split.end_ns, timestamp_ns)
