@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         print(f'recording {interface}:{channel} to {recorder.path} (listen only; Ctrl-C stops)', file=sys.stderr)
         try:
             stats = record_passive(bus, recorder, stop, duration=args.duration,
-                                   report=None if args.quiet else report)
+                                   report=None if args.quiet else report, name=f'{interface}:{channel}')
         except KeyboardInterrupt:
             stats = recorder.stop()
         finally:
