@@ -86,3 +86,23 @@ def test_scan_errors_and_an_empty_bus(tmp_path, capsys) -> None:
     assert main(['scan', '--channel', unique_channel('empty'), '--timeout', '0.1']) == 1
     assert time.monotonic() - started < 2.0, 'all 127 ids are asked at once, not one after the other'
     assert '0 node(s) answered of 127 asked' in capsys.readouterr().out
+
+
+def test_a_full_transmit_queue_is_waited_out_then_a_clear_error(demo_bus) -> None:
+    """SocketCAN answers a burst of 127 requests with ENOBUFS: a few failing sends are retried."""
+    import can
+    import canopen
+
+    from drive_bridge.bag.scan import ScanError, scan
+    from drive_bridge.sim.faults import FaultyBus
+    bus = FaultyBus(can.Bus(interface='virtual', channel=demo_bus.bus.channel))
+    network = canopen.Network(bus)
+    network.connect()
+    try:
+        bus.fail_sends(3)
+        assert [n.node_id for n in scan(network, range(1, 8), 0.5)] == [2, 3, 4, 5]
+        bus.fail_sends(1000)
+        with pytest.raises(ScanError, match=r'SDO request 0x601 failed 5 times: .*transmit queue stays full'):
+            scan(network, range(1, 8), 0.2)
+    finally:
+        network.disconnect()
