@@ -161,3 +161,19 @@ def test_bad_inputs_are_clear_errors(tmp_path: Path, capsys: pytest.CaptureFixtu
     fails(['import', str(cut_minimon), '-o', str(tmp_path / 'o4'), '-q'], 'truncated', 'column header')
     with pytest.raises(BagError, match='no metadata.yaml'):
         open_recording(tmp_path)
+
+
+def test_a_trace_reader_closes_its_file_and_ignores_other_python_can_warnings(tmp_path: Path) -> None:
+    import logging
+
+    import psutil
+    trace = (TRACES / 'pcan2.trc').resolve()
+    frames = open_recording(trace).frames()
+    next(frames)
+    logging.getLogger('can.interfaces.socketcan').warning('an unrelated warning of python-can')
+    assert sum(1 for _ in frames) == 6968 - 1  # not taken for an unreadable line of the trace
+    frames = open_recording(trace).frames()
+    next(frames)
+    assert str(trace) in {f.path for f in psutil.Process().open_files()}
+    frames.close()  # a consumer that stops early
+    assert str(trace) not in {f.path for f in psutil.Process().open_files()}

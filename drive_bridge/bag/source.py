@@ -154,8 +154,9 @@ class _Skips(logging.Handler):
 def _trace_frames(path: Path, strict: bool, skipped: list[str]) -> Iterator[can.Message]:
     count = 0
     skips = _Skips()
-    logger = logging.getLogger('can')
+    logger = logging.getLogger('can.io')  # the readers' loggers only, not the rest of python-can
     logger.addHandler(skips)
+    reader: Any = None
     try:
         reader = can.LogReader(path)
         size = path.stat().st_size
@@ -188,3 +189,5 @@ def _trace_frames(path: Path, strict: bool, skipped: list[str]) -> Iterator[can.
                        f'{type(exc).__name__}: {exc}') from exc
     finally:
         logger.removeHandler(skips)
+        if reader is not None:
+            reader.stop()  # the file closes also when the caller abandons the generator
