@@ -118,6 +118,10 @@ def test_an_empty_split_is_moved_aside_and_the_rest_recovered(tmp_path: Path,
     assert main(['import', str(TRACES / 'pcan2.trc'), '-o', str(bag), '-q']) == 0
     (bag / 'bag_1.mcap').write_bytes(b'')
     capsys.readouterr()
+    assert main(['info', str(bag)]) == 0
+    out = capsys.readouterr().out
+    assert '  splits:   1 (bag_0.mcap)' in out
+    assert '1 split(s) not in metadata.yaml: run drive-bridge recover (bag_1.mcap)' in out
     assert main(['recover', str(bag)]) == 0
     assert 'bag_1.mcap: 0 messages recovered (0 bytes, no MCAP header' in capsys.readouterr().out
     assert listed(bag) == ['bag_0.mcap'] and (bag / 'bag_1.mcap.empty').exists()
@@ -130,3 +134,10 @@ def test_a_new_split_has_its_mcap_header_on_disk_at_once(tmp_path: Path) -> None
     split, = (tmp_path / 'bag').glob('*.mcap')
     assert split.read_bytes().startswith(MAGIC)  # before any flush or close
     writer.close()
+
+
+def test_info_of_a_bag_without_messages_has_no_start(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    BagWriter(tmp_path / 'bag').close()
+    assert main(['info', str(tmp_path / 'bag')]) == 0
+    out = capsys.readouterr().out
+    assert '  start:    (no messages)\n  duration: (no messages)' in out and '2262' not in out
