@@ -153,3 +153,14 @@ def test_times_going_backwards_and_ids_above_0x7ff_are_findings_not_crashes(tmp_
     [invalid] = [f for f in data['findings'] if f['kind'] == 'invalid-id']
     assert back['what'] == 'clock went back 1 times' and invalid['what'].startswith('2 frame(s)')
     assert data['recording']['duration_s'] == pytest.approx(2.0)
+
+
+def test_a_cia301_node_whose_emcy_is_reset_is_not_said_to_stay_disabled(tmp_path: Path) -> None:
+    path = tmp_path / 'io.log'  # an I/O module (no CiA 402 axis): an error EMCY, then the error reset
+    path.write_text('(1.000000) can0 705#05\n(1.200000) can0 085#0081100000000000\n'
+                    '(2.000000) can0 085#0000000000000000\n(3.000000) can0 705#05\n')
+    js = tmp_path / 'r.json'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
+    [emcy] = [f for f in json.loads(js.read_text())['findings'] if f['kind'] == 'emcy']
+    assert emcy['outcome'] == 'fault cleared at t=1.000 s'
