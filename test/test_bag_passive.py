@@ -67,7 +67,9 @@ def test_ctrl_c_closes_the_bag(tmp_path: Path, capsys) -> None:
         thread.join()
         sender.shutdown()
     assert code == 0
-    assert '500 frames' in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert '500 frames' in captured.out
+    assert '(passive: sends nothing; Ctrl-C stops)' in captured.err  # not 'listen only': the controller ACKs
     split, = (tmp_path / 'bag').glob('*.mcap')
     assert summary_problem(split) == ''  # closed: footer and summary written
     assert sum(1 for _ in open_recording(tmp_path / 'bag').frames()) == 500

@@ -18,7 +18,7 @@ from drive_bridge.errors import DriveBridgeError
 # verbs imports nothing.
 COMMANDS: tuple[tuple[str, str, str], ...] = (
     ('sim', 'sim', 'host the simulated drives of a bus configuration on a CAN interface (until Ctrl-C)'),
-    ('record', 'record', 'record a bus passively (listen only) into a rosbag2 MCAP bag'),
+    ('record', 'record', 'record a bus passively (sends nothing) into a rosbag2 MCAP bag'),
     ('import', 'importer', 'convert a CAN trace (trc, asc, blf, candump, csv, IXXAT MiniMon...) to a bag'),
     ('recover', 'recover', 'make a bag whose recorder was killed readable'),
     ('info', 'info', 'topics, types, counts, duration and stored files of a bag or trace'),

@@ -9,7 +9,7 @@ from pathlib import Path
 from types import FrameType
 
 NAME = 'record'
-HELP = 'record a bus passively (listen only: no SYNC, NMT or SDO) into a rosbag2 MCAP bag'
+HELP = 'record a bus passively (sends nothing: no SYNC, NMT or SDO) into a rosbag2 MCAP bag'
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -62,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
         def report(stats: RecorderStats) -> None:
             print(f'\r{stats.frames} frames, {stats.dropped} dropped, {stats.bytes / 1e6:.1f} MB, '
                   f'split {stats.split}', end='', file=sys.stderr, flush=True)
-        print(f'recording {interface}:{channel} to {recorder.path} (listen only; Ctrl-C stops)', file=sys.stderr)
+        print(f'recording {interface}:{channel} to {recorder.path} (passive: sends nothing; Ctrl-C stops)',
+              file=sys.stderr)
         try:
             stats = record_passive(bus, recorder, stop, duration=args.duration,
                                    report=None if args.quiet else report, name=f'{interface}:{channel}')
