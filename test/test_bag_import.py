@@ -95,7 +95,11 @@ def test_a_config_whose_dcf_is_outside_its_directory_decodes_and_diagnoses_from_
     trace = TRACES / 'ros2_canopen_issue331_cia402_velocity_enable_excerpt.log'
     assert main(['import', str(trace), '--config', str(config), '-o', str(bag), '-q']) == 0
     assert list(open_recording(bag).files) == ['../../shared/realdata/eds/maxon_epos4_0x1018.eds']
+    capsys.readouterr()
     assert main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'x')]) == 0, capsys.readouterr().err
+    # the excerpt has no SYNC, the config a 4 ms cycle: said, not an empty /joint_states in silence
+    assert ('warning: the config has master.sync_period 0.004 s but the recording holds no SYNC frame (0x080)'
+            in capsys.readouterr().out)
     assert main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--no-progress']) == 0, \
         capsys.readouterr().err
     decoded = tmp_path / 'decoded'  # a trace decoded with --config stores the config's EDS too
