@@ -38,7 +38,7 @@ RECORD_OVERHEAD = 31      # bytes an MCAP message record adds to its payload
 ROSBAG2_VERSION = 9
 
 _TIME = struct.Struct('<4siI')
-_FRAME = struct.Struct('<IBBBBI')
+FRAME_HEAD = struct.Struct('<IBBBBI')  # CanFrame: id, ext, rtr, err, dlc, data length (writer and reader)
 _CDR_LE = b'\x00\x01\x00\x00'
 
 
@@ -82,7 +82,7 @@ class FrameEncoder:
         sec, nsec = divmod(stamp, 1_000_000_000)
         return stamp, b''.join((
             _TIME.pack(_CDR_LE, sec, nsec), frame_id,
-            _FRAME.pack(msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame,
+            FRAME_HEAD.pack(msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame,
                         msg.is_error_frame, msg.dlc, len(data)),
             data, b'\x00' if msg.is_rx else b'\x01'))
 
