@@ -181,3 +181,14 @@ def test_a_trace_reader_closes_its_file_and_ignores_other_python_can_warnings(tm
     assert str(trace) in {f.path for f in psutil.Process().open_files()}
     frames.close()  # a consumer that stops early
     assert str(trace) not in {f.path for f in psutil.Process().open_files()}
+
+
+def test_every_verb_has_one_help_and_one_spelling_of_no_progress(capsys: pytest.CaptureFixture[str]) -> None:
+    from drive_bridge.cli.main import COMMANDS
+    for verb, _, help_text in COMMANDS:
+        with pytest.raises(SystemExit, match='0'):
+            main([verb, '--help'])
+        text = ' '.join(capsys.readouterr().out.split())
+        assert ' '.join(help_text.split()) in text, verb  # the verb's page says what the listing says
+        if verb in ('import', 'record', 'replay', 'diagnose'):
+            assert '--no-progress' in text, verb

@@ -11,9 +11,7 @@ from tqdm import tqdm  # type: ignore[import-untyped]
 
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.source import Recording, open_recording
-
-NAME = 'replay'
-HELP = 'replay a bag or trace onto a CAN bus (--onto) or through the decoders into a bag (--decode)'
+from drive_bridge.cli.command import add_progress_option
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -37,7 +35,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         'in the bag), --onto takes the bus from it')
     dec.add_argument('-o', '--output', type=Path, help='bag to write (must not exist)')
     dec.add_argument('--namespace', default='/drive_bridge', help="the bridge node's topics (default /drive_bridge)")
-    parser.add_argument('--quiet', action='store_true', help='no progress bar')
+    add_progress_option(parser, '--quiet')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,7 +62,7 @@ def _onto(args: argparse.Namespace, recording: Recording) -> int:
     except Exception as exc:
         raise BagError(f'cannot open CAN bus interface={interface!r} channel={channel!r}: {exc}') from exc
     try:
-        with tqdm(unit=' frames', disable=args.quiet, desc='replay') as bar:
+        with tqdm(unit=' frames', disable=args.no_progress, desc='replay') as bar:
             stats = replay_onto(recording.frames(), bus, speed=args.speed, keep=keep, on_frame=bar.update)
     finally:
         bus.shutdown()
@@ -85,7 +83,7 @@ def _decode(args: argparse.Namespace, recording: Recording) -> int:
     files = config_files(config) if args.config is not None else recording.files  # the config's EDS with it
     writer = BagWriter(args.output, config_yaml=config_yaml, files=files)
     try:
-        with tqdm(unit=' frames', disable=args.quiet, desc='decode') as bar:
+        with tqdm(unit=' frames', disable=args.no_progress, desc='decode') as bar:
             stats = decode_into(recording.frames(), config, writer, Topics(args.namespace.rstrip('/')),
                                 on_frame=bar.update)
     except BaseException:

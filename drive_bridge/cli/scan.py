@@ -9,9 +9,6 @@ import canopen
 from drive_bridge.bag.scan import ScanError, parse_node_ids, scan
 from drive_bridge.bag.starter import starter_config
 
-NAME = 'scan'
-HELP = 'find the nodes on a live bus (identity, vendor, drive family) and write a starter bus config'
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--interface', required=True,
