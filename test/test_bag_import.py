@@ -86,6 +86,40 @@ def test_import_stores_the_config_and_its_eds(tmp_path: Path) -> None:
     assert bag.files == {'eds/io.eds': eds.read_bytes()}
 
 
+def test_a_config_whose_dcf_is_outside_its_directory_decodes_and_diagnoses_from_the_bag(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The shipped vendor examples name their EDS as ../../shared/...: the bag stores it under that
+    path and the stored config loads again (replay --decode, diagnose) without the original files."""
+    config = ROOT / 'config' / 'maxon_epos4_example.yaml'
+    bag = tmp_path / 'imp331'
+    trace = TRACES / 'ros2_canopen_issue331_cia402_velocity_enable_excerpt.log'
+    assert main(['import', str(trace), '--config', str(config), '-o', str(bag), '-q']) == 0
+    assert list(open_recording(bag).files) == ['../../shared/realdata/eds/maxon_epos4_0x1018.eds']
+    capsys.readouterr()
+    assert main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'x')]) == 0, capsys.readouterr().err
+    # the excerpt has no SYNC, the config a 4 ms cycle: said, not an empty /joint_states in silence
+    assert ('warning: the config has master.sync_period 0.004 s but the recording holds no SYNC frame (0x080)'
+            in capsys.readouterr().out)
+    assert main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--no-progress']) == 0, \
+        capsys.readouterr().err
+    decoded = tmp_path / 'decoded'  # a trace decoded with --config stores the config's EDS too
+    assert main(['replay', str(trace), '--decode', '--config', str(config), '-o', str(decoded)]) == 0
+    assert open_recording(decoded).files == open_recording(bag).files
+
+
+def test_a_can_fd_frame_and_an_empty_trace_are_refused(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    fd = tmp_path / 'fd.log'
+    fd.write_text('(1.000000) can0 701#05\n(1.100000) can0 181##1001122334455667788990011\n')
+    assert main(['import', str(fd), '-o', str(tmp_path / 'a'), '-q']) == 2
+    assert 'fd.log: frame 2 (id 0x181 at 1.100000) is a CAN FD frame' in capsys.readouterr().err
+    empty = tmp_path / 'empty.log'
+    empty.write_text('')
+    assert main(['import', str(empty), '-o', str(tmp_path / 'b'), '-q']) == 2
+    assert 'empty.log: the trace holds no frames' in capsys.readouterr().err
+    assert not (tmp_path / 'a').exists() and not (tmp_path / 'b').exists()
+
+
 def test_a_config_whose_nodes_are_not_in_the_trace_is_warned(tmp_path: Path) -> None:
     config = tmp_path / 'bus.yaml'
     config.write_text('bus: {interface: virtual, channel: x}\nnodes:\n  far: {node_id: 77, family: generic_402}\n')
@@ -131,3 +165,30 @@ def test_bad_inputs_are_clear_errors(tmp_path: Path, capsys: pytest.CaptureFixtu
     fails(['import', str(cut_minimon), '-o', str(tmp_path / 'o4'), '-q'], 'truncated', 'column header')
     with pytest.raises(BagError, match='no metadata.yaml'):
         open_recording(tmp_path)
+
+
+def test_a_trace_reader_closes_its_file_and_ignores_other_python_can_warnings(tmp_path: Path) -> None:
+    import logging
+
+    import psutil
+    trace = (TRACES / 'pcan2.trc').resolve()
+    frames = open_recording(trace).frames()
+    next(frames)
+    logging.getLogger('can.interfaces.socketcan').warning('an unrelated warning of python-can')
+    assert sum(1 for _ in frames) == 6968 - 1  # not taken for an unreadable line of the trace
+    frames = open_recording(trace).frames()
+    next(frames)
+    assert str(trace) in {f.path for f in psutil.Process().open_files()}
+    frames.close()  # a consumer that stops early
+    assert str(trace) not in {f.path for f in psutil.Process().open_files()}
+
+
+def test_every_verb_has_one_help_and_one_spelling_of_no_progress(capsys: pytest.CaptureFixture[str]) -> None:
+    from drive_bridge.cli.main import COMMANDS
+    for verb, _, help_text in COMMANDS:
+        with pytest.raises(SystemExit, match='0'):
+            main([verb, '--help'])
+        text = ' '.join(capsys.readouterr().out.split())
+        assert ' '.join(help_text.split()) in text, verb  # the verb's page says what the listing says
+        if verb in ('import', 'record', 'replay', 'diagnose'):
+            assert '--no-progress' in text, verb

@@ -67,7 +67,37 @@ def test_ctrl_c_closes_the_bag(tmp_path: Path, capsys) -> None:
         thread.join()
         sender.shutdown()
     assert code == 0
-    assert '500 frames' in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert '500 frames' in captured.out
+    assert '(passive: sends nothing; Ctrl-C stops)' in captured.err  # not 'listen only': the controller ACKs
     split, = (tmp_path / 'bag').glob('*.mcap')
     assert summary_problem(split) == ''  # closed: footer and summary written
     assert sum(1 for _ in open_recording(tmp_path / 'bag').frames()) == 500
+
+
+def test_a_failing_interface_closes_the_bag_and_names_the_interface(tmp_path: Path) -> None:
+    from drive_bridge.bag.errors import BagError
+    from drive_bridge.bag.passive import record_passive
+    from drive_bridge.bag.recorder import Recorder
+    channel = unique_channel()
+    bus = can.Bus(interface='virtual', channel=channel)
+    sender = can.Bus(interface='virtual', channel=channel)
+    recorder = Recorder(tmp_path / 'bag')
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            record_passive(bus, recorder, threading.Event(), name=f'virtual:{channel}')
+        except BaseException as exc:
+            errors.append(exc)
+    thread = threading.Thread(target=run)
+    thread.start()
+    for _ in range(5):
+        sender.send(can.Message(arbitration_id=0x701, data=b'\x05'))
+    time.sleep(0.3)
+    bus.shutdown()  # the adapter goes away: recv raises CanOperationError
+    thread.join(5)
+    sender.shutdown()
+    assert len(errors) == 1 and isinstance(errors[0], BagError), errors
+    assert f'CAN interface virtual:{channel}: receive failed' in str(errors[0])
+    assert sum(1 for _ in open_recording(tmp_path / 'bag').frames()) == 5

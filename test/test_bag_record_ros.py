@@ -126,6 +126,12 @@ def test_record_service_starts_and_stops_and_diagnostics_report_it(ros: RosHarne
     ros.node('js_sub').create_subscription(JointState, '/joint_states', states.append, 10)
     try:
         assert not ros.call(client, SetBool.Request(data=False)).success  # not recording
+        listeners = len(node.master.tap)
+        for _ in range(2):  # on/off leaves no stale recorder on the bus threads
+            assert ros.call(client, SetBool.Request(data=True)).success
+            assert len(node.master.tap) == listeners + 1
+            assert ros.call(client, SetBool.Request(data=False)).success
+            assert len(node.master.tap) == listeners
         started = ros.call(client, SetBool.Request(data=True))
         assert started.success and started.message.startswith(str(tmp_path / 'bags'))
         again = ros.call(client, SetBool.Request(data=True))

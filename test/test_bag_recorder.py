@@ -51,3 +51,14 @@ def test_a_failing_write_stops_recording_and_says_why(tmp_path: Path) -> None:
     stats = recorder.stop()
     assert 'unknown message type' in stats.error and stats.dropped == 1
     assert sum(1 for _ in open_recording(tmp_path / 'bag').frames()) == 100
+
+
+def test_a_can_fd_frame_is_dropped_with_its_reason(tmp_path: Path) -> None:
+    recorder = Recorder(tmp_path / 'bag')
+    recorder.on_frame(frame(1))
+    recorder.on_frame(can.Message(arbitration_id=0x181, data=bytes(12), is_fd=True, bitrate_switch=True))
+    recorder.on_frame(frame(2))
+    stats = recorder.stop()
+    assert (stats.frames, stats.dropped, stats.dropped_fd) == (2, 1, 1)
+    assert '1 dropped (1 CAN FD frames: a bag holds classic CAN only)' in stats.summary()
+    assert [f.dlc for f in open_recording(tmp_path / 'bag').frames()] == [frame(1).dlc, frame(2).dlc]

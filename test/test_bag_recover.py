@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import can
 import pytest
 import yaml
 from mcap.records import Message
@@ -17,9 +18,10 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import Reader
 
 from drive_bridge.bag.errors import BagError
-from drive_bridge.bag.recover import recover, summary_problem
+from drive_bridge.bag.recover import MAGIC, recover, summary_problem
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.typestore import typestore
+from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
 from rostools import wait_for
 
@@ -106,3 +108,36 @@ def test_recover_leaves_a_complete_bag_as_it_is(tmp_path: Path) -> None:
     report = recover(tmp_path / 'bag')
     assert [s.rewritten for s in report.splits] == [False] and split.stat().st_mtime_ns == mtime
     assert sum(1 for _ in open_recording(tmp_path / 'bag').frames()) == 6968
+
+
+@pytest.mark.skipif(not TRACES.is_dir(), reason='real traces not available')
+def test_an_empty_split_is_moved_aside_and_the_rest_recovered(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """A recorder killed within its first second leaves a 0-byte split (its header was still buffered)."""
+    bag = tmp_path / 'bag'
+    assert main(['import', str(TRACES / 'pcan2.trc'), '-o', str(bag), '-q']) == 0
+    (bag / 'bag_1.mcap').write_bytes(b'')
+    capsys.readouterr()
+    assert main(['info', str(bag)]) == 0
+    out = capsys.readouterr().out
+    assert '  splits:   1 (bag_0.mcap)' in out
+    assert '1 split(s) not in metadata.yaml: run drive-bridge recover (bag_1.mcap)' in out
+    assert main(['recover', str(bag)]) == 0
+    assert 'bag_1.mcap: 0 messages recovered (0 bytes, no MCAP header' in capsys.readouterr().out
+    assert listed(bag) == ['bag_0.mcap'] and (bag / 'bag_1.mcap.empty').exists()
+    assert sum(1 for _ in open_recording(bag).frames()) == 6968
+
+
+def test_a_new_split_has_its_mcap_header_on_disk_at_once(tmp_path: Path) -> None:
+    writer = BagWriter(tmp_path / 'bag')
+    writer.write_frame(can.Message(arbitration_id=0x701, data=b'\x05', timestamp=1.0))
+    split, = (tmp_path / 'bag').glob('*.mcap')
+    assert split.read_bytes().startswith(MAGIC)  # before any flush or close
+    writer.close()
+
+
+def test_info_of_a_bag_without_messages_has_no_start(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    BagWriter(tmp_path / 'bag').close()
+    assert main(['info', str(tmp_path / 'bag')]) == 0
+    out = capsys.readouterr().out
+    assert '  start:    (no messages)\n  duration: (no messages)' in out and '2262' not in out

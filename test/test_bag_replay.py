@@ -100,9 +100,11 @@ def test_node_and_direction_filters_and_speed(bag, capsys) -> None:
 def test_replay_errors_name_what_is_wrong(bag, tmp_path, capsys) -> None:
     assert main(['replay', str(bag), '--onto']) == 2
     assert '--channel' in capsys.readouterr().err
-    assert main(['replay', str(bag), '--onto', '--channel', 'x', '--speed', '0']) == 2
+    assert main(['replay', str(bag), '--onto', '--channel', 'can0']) == 2  # no silent 'virtual' bus
+    assert 'give the bus with --interface and --channel' in capsys.readouterr().err
+    assert main(['replay', str(bag), '--onto', '--interface', 'virtual', '--channel', 'x', '--speed', '0']) == 2
     assert 'speed 0' in capsys.readouterr().err
     assert main(['replay', str(bag), '--onto', '--interface', 'nonesuch', '--channel', 'x']) == 2
     assert "interface='nonesuch'" in capsys.readouterr().err
-    assert main(['replay', str(tmp_path / 'nope.trc'), '--onto', '--channel', 'x']) == 2
+    assert main(['replay', str(tmp_path / 'nope.trc'), '--onto', '--interface', 'virtual', '--channel', 'x']) == 2
     assert 'nope.trc' in capsys.readouterr().err

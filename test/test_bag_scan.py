@@ -73,16 +73,39 @@ def test_families_recognise_their_shipped_identities() -> None:
 
 
 def test_scan_errors_and_an_empty_bus(tmp_path, capsys) -> None:
-    assert main(['scan', '--channel', 'x', '--nodes', '0-200']) == 2
+    with pytest.raises(SystemExit, match='2'):  # no silent 'virtual' default for a real bus
+        main(['scan', '--channel', 'can0'])
+    assert 'the following arguments are required: --interface' in capsys.readouterr().err
+    assert main(['scan', '--interface', 'virtual', '--channel', 'x', '--nodes', '0-200']) == 2
     assert "'0-200' is outside the node ids 1..127" in capsys.readouterr().err
-    assert main(['scan', '--channel', 'x', '--nodes', 'two']) == 2
+    assert main(['scan', '--interface', 'virtual', '--channel', 'x', '--nodes', 'two']) == 2
     assert "'two' is not a node id" in capsys.readouterr().err
     (tmp_path / 'taken.yaml').write_text('')
-    assert main(['scan', '--channel', 'x', '-o', str(tmp_path / 'taken.yaml')]) == 2
+    assert main(['scan', '--interface', 'virtual', '--channel', 'x', '-o', str(tmp_path / 'taken.yaml')]) == 2
     assert 'exists already' in capsys.readouterr().err
     assert main(['scan', '--interface', 'nonesuch', '--channel', 'x']) == 2
     assert "interface='nonesuch'" in capsys.readouterr().err
     started = time.monotonic()
-    assert main(['scan', '--channel', unique_channel('empty'), '--timeout', '0.1']) == 1
+    assert main(['scan', '--interface', 'virtual', '--channel', unique_channel('empty'), '--timeout', '0.1']) == 1
     assert time.monotonic() - started < 2.0, 'all 127 ids are asked at once, not one after the other'
     assert '0 node(s) answered of 127 asked' in capsys.readouterr().out
+
+
+def test_a_full_transmit_queue_is_waited_out_then_a_clear_error(demo_bus) -> None:
+    """SocketCAN answers a burst of 127 requests with ENOBUFS: a few failing sends are retried."""
+    import can
+    import canopen
+
+    from drive_bridge.bag.scan import ScanError, scan
+    from drive_bridge.sim.faults import FaultyBus
+    bus = FaultyBus(can.Bus(interface='virtual', channel=demo_bus.bus.channel))
+    network = canopen.Network(bus)
+    network.connect()
+    try:
+        bus.fail_sends(3)
+        assert [n.node_id for n in scan(network, range(1, 8), 0.5)] == [2, 3, 4, 5]
+        bus.fail_sends(1000)
+        with pytest.raises(ScanError, match=r'SDO request 0x601 failed 5 times: .*transmit queue stays full'):
+            scan(network, range(1, 8), 0.2)
+    finally:
+        network.disconnect()

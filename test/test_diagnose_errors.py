@@ -6,6 +6,7 @@ import io
 import json
 from pathlib import Path
 
+import can
 import pytest
 
 from configtools import REALDATA
@@ -116,3 +117,50 @@ def test_error_frames_are_a_finding(tmp_path: Path) -> None:
     assert data['recording']['error_frames'] == 2
     [finding] = [f for f in data['findings'] if f['kind'] == 'error-frames']
     assert finding['what'] == '2 CAN error frame(s)' and finding['time'] == 0.5
+
+
+@pytest.mark.parametrize('key', ['/ABS/evil.eds', '../../../../../../../../ABS/evil.eds', 'a/../../evil.eds'])
+def test_a_stored_file_key_never_writes_outside_the_temporary_directory(tmp_path: Path, key: str) -> None:
+    """A bag names its stored files; diagnose (and decode) write them only inside their temp dir."""
+    from drive_bridge.bag.recorder import Recorder
+    outside = tmp_path / 'outside'
+    outside.mkdir()
+    key = key.replace('/ABS', str(outside))
+    bag = tmp_path / 'bag'
+    config = 'bus: {interface: virtual, channel: x}\nnodes:\n  io: {node_id: 5, family: generic_301}\n'
+    recorder = Recorder(bag, config_yaml=config, files={key: b'[FileInfo]\n'})
+    recorder.on_frame(can.Message(arbitration_id=0x705, data=b'\x05', timestamp=1.0))
+    recorder.stop()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        main(['diagnose', str(bag), '-o', str(tmp_path / 'r.html'), '--no-progress'])
+        main(['replay', str(bag), '--decode', '-o', str(tmp_path / 'decoded')])
+    assert not list(outside.iterdir()) and not (tmp_path / 'evil.eds').exists()
+    assert not list(tmp_path.parent.glob('evil.eds'))
+
+
+def test_times_going_backwards_and_ids_above_0x7ff_are_findings_not_crashes(tmp_path: Path) -> None:
+    path = tmp_path / 'odd.log'
+    path.write_text('(10.000000) can0 705#05\n(10.500000) can0 185#0102\n(9.000000) can0 705#05\n'
+                    '(9.200000) can0 705#05\n(11.000000) can0 705#05\n(11.100000) can0 9AB#01\n'
+                    '(11.200000) can0 800#\n(12.000000) can0 705#05\n')
+    js = tmp_path / 'r.json'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
+    data = json.loads(js.read_text())
+    kinds = [f['kind'] for f in data['findings']]
+    assert kinds.count('clock-backwards') == 1 and kinds.count('invalid-id') == 1
+    [back] = [f for f in data['findings'] if f['kind'] == 'clock-backwards']
+    [invalid] = [f for f in data['findings'] if f['kind'] == 'invalid-id']
+    assert back['what'] == 'clock went back 1 times' and invalid['what'].startswith('2 frame(s)')
+    assert data['recording']['duration_s'] == pytest.approx(2.0)
+
+
+def test_a_cia301_node_whose_emcy_is_reset_is_not_said_to_stay_disabled(tmp_path: Path) -> None:
+    path = tmp_path / 'io.log'  # an I/O module (no CiA 402 axis): an error EMCY, then the error reset
+    path.write_text('(1.000000) can0 705#05\n(1.200000) can0 085#0081100000000000\n'
+                    '(2.000000) can0 085#0000000000000000\n(3.000000) can0 705#05\n')
+    js = tmp_path / 'r.json'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
+    [emcy] = [f for f in json.loads(js.read_text())['findings'] if f['kind'] == 'emcy']
+    assert emcy['outcome'] == 'fault cleared at t=1.000 s'

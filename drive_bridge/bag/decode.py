@@ -111,6 +111,7 @@ class OfflineBus:
                                              for index in (obj.CONTROLWORD, obj.MODES_OF_OPERATION))
                               for node_id, node in self.nodes.items()}
         self.frames = 0
+        self.syncs = 0
         self.node_frames = 0  # frames of the configured nodes (PDO, EMCY, heartbeat)
 
     # dispatch ---------------------------------------------------------------------------
@@ -126,6 +127,7 @@ class OfflineBus:
             self.node_frames += 1
             out.extend(handler(msg))
         elif cob_id == SYNC_COB_ID:
+            self.syncs += 1
             out.extend(self._cycle(msg.timestamp))
         elif cob_id == NMT_COB_ID and len(msg.data) >= 2:
             out.extend(self._on_nmt_command(msg))
@@ -139,9 +141,14 @@ class OfflineBus:
         return out
 
     def problems(self) -> list[str]:
-        """What did not fit the config: PDOs shorter than their mapping."""
-        return [f'node {n.node_id} ({n.name}): {n.process.rx_errors} TPDO(s) shorter than the config maps, '
-                f'last: {n.process.last_rx_error}' for n in self.nodes.values() if n.process.rx_errors]
+        """What did not fit the config: PDOs shorter than their mapping, a SYNC the recording lacks."""
+        problems = [f'node {n.node_id} ({n.name}): {n.process.rx_errors} TPDO(s) shorter than the config maps, '
+                    f'last: {n.process.last_rx_error}' for n in self.nodes.values() if n.process.rx_errors]
+        if self.sync_period and not self.syncs and self.axes:
+            problems.append(f'the config has master.sync_period {self.sync_period:g} s but the recording holds no '
+                            f'SYNC frame (0x{SYNC_COB_ID:03X}): no joint or axis states decoded (decode with a config '
+                            'whose sync_period is 0 to take them at each TPDO)')
+        return problems
 
     def decode(self, frames: Iterable[can.Message]) -> Iterator[Decoded]:
         for msg in frames:

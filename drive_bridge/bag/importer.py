@@ -8,6 +8,7 @@ from pathlib import Path
 
 from tqdm import tqdm  # type: ignore[import-untyped]  # no stubs installed
 
+from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.recorder import config_files
 from drive_bridge.bag.source import Recording, open_recording
 from drive_bridge.bag.writer import BagWriter
@@ -64,6 +65,9 @@ def import_trace(source: Path, out: Path, config_path: Path | None = None, progr
         with tqdm(total=estimate_frames(recording), unit=' frames', disable=not progress, leave=False,
                   desc=recording.path.name) as bar:
             for count, msg in enumerate(recording.frames(), start=1):
+                if msg.is_fd:  # CanFrame has no FD fields: replayed it would be a wrong classic frame
+                    raise BagError(f'{recording.path}: frame {count} (id 0x{msg.arbitration_id:X} at '
+                                   f'{msg.timestamp:.6f}) is a CAN FD frame: a bag holds classic CAN frames only')
                 writer.write_frame(msg, str(msg.channel if msg.channel is not None else ''))
                 if not msg.is_extended_id and (node := node_of(msg.arbitration_id)) is not None:
                     seen.add(node)
@@ -71,6 +75,8 @@ def import_trace(source: Path, out: Path, config_path: Path | None = None, progr
                 last = msg.timestamp
                 if count % 4096 == 0:
                     bar.update(4096)
+        if writer.frames == 0:
+            raise BagError(f'{recording.path}: the trace holds no frames')
         writer.close()
     except BaseException:
         writer.close()
@@ -82,8 +88,6 @@ def import_trace(source: Path, out: Path, config_path: Path | None = None, progr
                         f'trace (it has {", ".join(map(str, sorted(seen))) or "no node traffic"}): wrong config?')
     if recording.skipped:
         warnings.append(f'{len(recording.skipped)} unreadable line(s) skipped, the first: {recording.skipped[0]}')
-    if writer.frames == 0:
-        warnings.append('the trace holds no frames')
     return ImportReport(recording.path, recording.format, writer.path, writer.frames,
                         (last - first) if first is not None and last is not None else 0.0, tuple(sorted(seen)),
                         tuple(warnings))

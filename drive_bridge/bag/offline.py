@@ -1,10 +1,9 @@
 """``replay --decode``: a recording of raw frames + its bus config -> a bag of decoded topics."""
 from __future__ import annotations
 
-import tempfile
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 import can
 
@@ -12,25 +11,13 @@ from drive_bridge.bag.decode import OfflineBus
 from drive_bridge.bag.decoded_msgs import Topics, to_cdr
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.source import Recording
+from drive_bridge.bag.stored import load_stored_config
 from drive_bridge.bag.writer import BagWriter
-from drive_bridge.config.loader import load_bus_config, load_bus_config_text
+from drive_bridge.config.loader import load_bus_config
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.model import BusConfig
 
 DEFAULT_TOPICS = Topics()
-
-
-def stored_config(text: str, files: Mapping[str, bytes], source: str) -> BusConfig:
-    """The bus config stored in a bag, its EDS/DCF files put where its relative paths point."""
-    with tempfile.TemporaryDirectory(prefix='drive_bridge_decode_') as tmp:
-        for name, data in files.items():
-            relative = PurePosixPath(name)
-            if relative.is_absolute() or '..' in relative.parts:
-                continue  # an absolute path in the config is read where it points
-            target = Path(tmp, *relative.parts)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_bytes(data)
-        return load_bus_config_text(text, source, tmp)  # the OD is loaded now: the files may go
 
 
 def recording_config(recording: Recording, config_path: Path | None) -> BusConfig:
@@ -41,7 +28,7 @@ def recording_config(recording: Recording, config_path: Path | None) -> BusConfi
         raise BagError(f'{recording.path}: a {recording.format} recording stores no bus config: '
                        'give one with --config bus.yaml')
     try:
-        return stored_config(recording.config_yaml, recording.files, f'{recording.path} (stored bus config)')
+        return load_stored_config(recording.config_yaml, recording.files, f'{recording.path} (stored bus config)')
     except DriveBridgeError as exc:
         raise BagError(f'{recording.path}: the stored bus config does not load: {exc}') from exc
 

@@ -10,19 +10,27 @@ from collections.abc import Callable
 
 import can
 
+from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.recorder import Recorder, RecorderStats
 
 RECV_TIMEOUT = 0.1  # s: how soon a stop request is seen
 
 
 def record_passive(bus: can.BusABC, recorder: Recorder, stop: threading.Event, *, duration: float = 0.0,
-                   report: Callable[[RecorderStats], None] | None = None, report_period: float = 0.5) -> RecorderStats:
-    """Queue every received frame until ``stop`` is set (or ``duration`` s passed), then close the bag."""
+                   report: Callable[[RecorderStats], None] | None = None, report_period: float = 0.5,
+                   name: str = '') -> RecorderStats:
+    """Queue every received frame until ``stop`` is set (or ``duration`` s passed), then close the bag.
+    A failing interface (unplugged adapter, interface down) closes the bag and raises BagError
+    naming it (``name``, e.g. 'socketcan:can0'; default the bus's channel_info)."""
     deadline = time.monotonic() + duration if duration > 0 else float('inf')
     next_report = time.monotonic() + report_period
     try:
         while not stop.is_set():
-            msg = bus.recv(RECV_TIMEOUT)
+            try:
+                msg = bus.recv(RECV_TIMEOUT)
+            except (can.CanError, OSError) as exc:
+                raise BagError(f'CAN interface {name or bus.channel_info}: receive failed: {exc} '
+                               f'(the bag {recorder.path} is closed with the frames before)') from exc
             if msg is not None:
                 recorder.on_frame(msg)
             now = time.monotonic()

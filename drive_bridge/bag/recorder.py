@@ -8,6 +8,7 @@ for the GIL. Memory is bounded by ``queue_frames`` (frames and messages queued).
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections import deque
@@ -38,16 +39,18 @@ class RecorderStats:
     path: Path
     frames: int           # CAN frames written
     messages: int         # other messages written (decoded topics, stored files)
-    dropped: int          # frames and messages lost because the queue was full
+    dropped: int          # frames and messages lost: the queue was full, or a CAN FD frame
     queued: int
     bytes: int            # written, before compression
     split: str            # file name of the open split
     splits: int           # closed splits
     running: bool
     error: str            # why the writer stopped, '' when it did not fail
+    dropped_fd: int = 0   # of ``dropped``: CAN FD frames (a bag's CanFrame holds classic frames only)
 
     def summary(self) -> str:
-        return (f'{self.path}: {self.frames} frames, {self.messages} messages, {self.dropped} dropped, '
+        fd = f' ({self.dropped_fd} CAN FD frames: a bag holds classic CAN only)' if self.dropped_fd else ''
+        return (f'{self.path}: {self.frames} frames, {self.messages} messages, {self.dropped} dropped{fd}, '
                 f'{self.bytes / 1e6:.1f} MB in {self.splits + (1 if self.split else 0)} split(s)'
                 + (f'; error: {self.error}' if self.error else ''))
 
@@ -69,6 +72,7 @@ class Recorder:
         self._frames: deque[can.Message] = deque()
         self._messages: deque[Message] = deque()
         self.dropped = 0
+        self.dropped_fd = 0
         self._drop_lock = threading.Lock()  # listeners run in several threads; drops are rare
         self._accepting = True
         self._stop = threading.Event()
@@ -79,7 +83,11 @@ class Recorder:
     # -- producers (any thread, keep them short) ------------------------------------------------
     def on_frame(self, msg: can.Message) -> None:
         """Tap listener: queue the frame (python-can makes a new Message per frame)."""
-        if self._accepting and len(self._frames) + len(self._messages) < self.queue_frames:
+        if msg.is_fd:  # CanFrame has no FD fields: it would replay as a wrong classic frame
+            with self._drop_lock:
+                self.dropped += 1
+                self.dropped_fd += 1
+        elif self._accepting and len(self._frames) + len(self._messages) < self.queue_frames:
             self._frames.append(msg)
         else:
             self._drop()
@@ -142,9 +150,9 @@ class Recorder:
 
     def stop(self, timeout: float = 30.0) -> RecorderStats:
         """Write what is queued, close the bag, and return the final counts."""
+        self._accepting = False  # nothing more in: the drain ends
         self._stop.set()
         self._thread.join(timeout)
-        self._accepting = False
         if self._thread.is_alive():
             self.error = self.error or f'writer thread did not finish within {timeout} s'
         return self.stats()
@@ -157,24 +165,25 @@ class Recorder:
         writer = self.writer
         split = writer.current_split
         return RecorderStats(
-            path=self.path, frames=writer.frames, messages=sum(t.count for t in writer.topics.values()) - writer.frames,
+            path=self.path, frames=writer.frames, messages=writer.messages - writer.frames,
             dropped=self.dropped, queued=len(self._frames) + len(self._messages), bytes=writer.bytes_written,
-            split=split.name if split else '', splits=len(writer.splits), running=self.running, error=self.error)
+            split=split.name if split else '', splits=len(writer.splits), running=self.running, error=self.error,
+            dropped_fd=self.dropped_fd)
 
 
 def config_files(config: BusConfig) -> dict[str, bytes]:
     """The EDS/DCF files of the config's nodes, by their path relative to the config's directory
     (as the config names them), else by file name (e.g. a family's shipped EDS)."""
-    base = config.path.resolve().parent if config.path is not None else Path.cwd()
+    base = os.path.abspath(config.path.parent if config.path is not None else Path.cwd())
     package = Path(__file__).resolve().parents[1]
     files: dict[str, bytes] = {}
     for node in config.nodes:
         if node.eds_path is None:
             continue
-        path = node.eds_path.resolve()
+        path = node.eds_path
         name = path.name
-        if path.is_relative_to(base) and not path.is_relative_to(package):
-            name = str(path.relative_to(base))
+        if not path.resolve().is_relative_to(package):  # the config's own path: '../../shared/x.dcf'
+            name = Path(os.path.relpath(os.path.abspath(path), base)).as_posix()  # symlinks as the OS reads
         try:
             files[name] = path.read_bytes()
         except OSError as exc:

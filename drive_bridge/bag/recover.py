@@ -130,6 +130,12 @@ def recover(path: Path) -> RecoverReport:
     infos: list[SplitInfo] = []
     types: dict[str, str] = {}
     for split in splits:
+        size = split.stat().st_size
+        if path.is_dir() and size < len(MAGIC):  # killed before its header reached the disk
+            split.replace(split.with_suffix('.mcap.empty'))
+            report.splits.append(RecoveredSplit(split, 0, True, f'{size} bytes, no MCAP header: '
+                                                'moved aside as .mcap.empty'))
+            continue
         problem = summary_problem(split)
         if problem:
             messages = rewrite_split(split)

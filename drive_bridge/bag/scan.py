@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import struct
 import threading
+import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
+import can
 import canopen
 from canopen.sdo.constants import EXPEDITED, REQUEST_UPLOAD, RESPONSE_ABORTED, RESPONSE_UPLOAD, SIZE_SPECIFIED
 from canopen.sdo.exceptions import SdoError
@@ -23,7 +25,10 @@ from drive_bridge.families import IdentityMatch, families_for_identity, get_fami
 from drive_bridge.model import Identity
 
 DEVICE_TYPE, DEVICE_NAME, IDENTITY = 0x1000, 0x1008, 0x1018
-SDO_TX, SDO_RX = 0x600, 0x580  # client -> server, server -> client
+# CiA 301 names the SDO COB-IDs from the server's (the node's) side
+SDO_SERVER_RX, SDO_SERVER_TX = 0x600, 0x580  # client -> server, server -> client
+SEND_RETRIES = 5  # a full transmit queue (SocketCAN's ENOBUFS) drains in about a frame time
+SEND_BACKOFF = 0.001  # s, times the attempt
 _UPLOAD = struct.Struct('<BHB4s')
 
 
@@ -89,7 +94,7 @@ def probe_device_types(network: canopen.Network, node_ids: Sequence[int],
         command, index, subindex, payload = _UPLOAD.unpack(bytes(data[:8]))
         if (index, subindex) != (DEVICE_TYPE, 0):
             return
-        node_id = cob_id - SDO_RX
+        node_id = cob_id - SDO_SERVER_TX
         if command & 0xE0 == RESPONSE_UPLOAD and command & EXPEDITED:
             size = 4 - ((command >> 2) & 0x3) if command & SIZE_SPECIFIED else 4
             answers[node_id] = int.from_bytes(payload[:size], 'little')
@@ -99,15 +104,28 @@ def probe_device_types(network: canopen.Network, node_ids: Sequence[int],
             done.set()
 
     for node_id in node_ids:
-        network.subscribe(SDO_RX + node_id, on_response)
+        network.subscribe(SDO_SERVER_TX + node_id, on_response)
     try:
         for node_id in node_ids:
-            network.send_message(SDO_TX + node_id, _UPLOAD.pack(REQUEST_UPLOAD, DEVICE_TYPE, 0, bytes(4)))
+            _send(network, SDO_SERVER_RX + node_id, _UPLOAD.pack(REQUEST_UPLOAD, DEVICE_TYPE, 0, bytes(4)))
         done.wait(timeout)
     finally:
         for node_id in node_ids:
-            network.unsubscribe(SDO_RX + node_id, on_response)
+            network.unsubscribe(SDO_SERVER_TX + node_id, on_response)
     return dict(sorted(answers.items()))
+
+
+def _send(network: canopen.Network, cob_id: int, data: bytes) -> None:
+    """One request; a full transmit queue is waited out a few times, then a ScanError."""
+    for attempt in range(1, SEND_RETRIES + 1):
+        try:
+            network.send_message(cob_id, data)
+            return
+        except can.CanError as exc:
+            if attempt == SEND_RETRIES:
+                raise ScanError(f'sending the SDO request 0x{cob_id:03X} failed {SEND_RETRIES} times: {exc} '
+                                '(the interface\'s transmit queue stays full, or the bus is off)') from exc
+            time.sleep(SEND_BACKOFF * attempt)
 
 
 def _upload(node: canopen.RemoteNode, index: int, subindex: int = 0) -> bytes | None:

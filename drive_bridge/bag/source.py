@@ -20,7 +20,7 @@ from rosbags.interfaces import Connection
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.ixxat import is_minimon, read_minimon
 from drive_bridge.bag.typestore import typestore
-from drive_bridge.bag.writer import CONFIG_TOPIC, FILES_TOPIC, FRAME_TYPE
+from drive_bridge.bag.writer import CONFIG_TOPIC, FILES_TOPIC, FRAME_HEAD, FRAME_TYPE
 
 # python-can's LogReader formats by file suffix, and the name a Recording reports for each
 TRACE_FORMATS: Mapping[str, str] = {
@@ -29,7 +29,6 @@ TRACE_FORMATS: Mapping[str, str] = {
 }
 EMPTY_TRACE_BYTES = 1024  # a trace this big with no frame is not a trace of that format
 _HEAD = struct.Struct('<iII')
-_FRAME = struct.Struct('<IBBBBI')
 
 
 def decode_frame(cdr: bytes | memoryview) -> can.Message:
@@ -39,8 +38,8 @@ def decode_frame(cdr: bytes | memoryview) -> can.Message:
     channel = bytes(buf[12:12 + length - 1]).decode('utf-8')
     offset = 12 + length
     offset += -offset % 4
-    ident, ext, rtr, err, dlc, size = _FRAME.unpack_from(buf, offset)
-    offset += _FRAME.size
+    ident, ext, rtr, err, dlc, size = FRAME_HEAD.unpack_from(buf, offset)
+    offset += FRAME_HEAD.size
     data = bytes(buf[offset:offset + size])
     return can.Message(timestamp=sec + nsec * 1e-9, arbitration_id=ident, is_extended_id=bool(ext),
                        is_remote_frame=bool(rtr), is_error_frame=bool(err), dlc=dlc, data=data,
@@ -154,8 +153,9 @@ class _Skips(logging.Handler):
 def _trace_frames(path: Path, strict: bool, skipped: list[str]) -> Iterator[can.Message]:
     count = 0
     skips = _Skips()
-    logger = logging.getLogger('can')
+    logger = logging.getLogger('can.io')  # the readers' loggers only, not the rest of python-can
     logger.addHandler(skips)
+    reader: Any = None
     try:
         reader = can.LogReader(path)
         size = path.stat().st_size
@@ -188,3 +188,5 @@ def _trace_frames(path: Path, strict: bool, skipped: list[str]) -> Iterator[can.
                        f'{type(exc).__name__}: {exc}') from exc
     finally:
         logger.removeHandler(skips)
+        if reader is not None:
+            reader.stop()  # the file closes also when the caller abandons the generator

@@ -38,7 +38,7 @@ RECORD_OVERHEAD = 31      # bytes an MCAP message record adds to its payload
 ROSBAG2_VERSION = 9
 
 _TIME = struct.Struct('<4siI')
-_FRAME = struct.Struct('<IBBBBI')
+FRAME_HEAD = struct.Struct('<IBBBBI')  # CanFrame: id, ext, rtr, err, dlc, data length (writer and reader)
 _CDR_LE = b'\x00\x01\x00\x00'
 
 
@@ -82,7 +82,7 @@ class FrameEncoder:
         sec, nsec = divmod(stamp, 1_000_000_000)
         return stamp, b''.join((
             _TIME.pack(_CDR_LE, sec, nsec), frame_id,
-            _FRAME.pack(msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame,
+            FRAME_HEAD.pack(msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame,
                         msg.is_error_frame, msg.dlc, len(data)),
             data, b'\x00' if msg.is_rx else b'\x01'))
 
@@ -126,6 +126,7 @@ class BagWriter:
         self.splits: list[SplitInfo] = []              # closed splits
         self.bytes_written = 0                         # payload + record overhead, whole bag
         self.frames = 0
+        self.messages = 0  # all topics' messages: read from other threads (``topics`` changes under them)
         self._stream: IO[bytes] | None = None
         self._mcap: Writer | None = None
         self._channels: dict[str, int] = {}
@@ -154,6 +155,7 @@ class BagWriter:
         assert self._mcap is not None
         self._mcap.add_message(channel, timestamp_ns, cdr, timestamp_ns)
         split.count += 1
+        self.messages += 1
         split.topics[topic] = split.topics.get(topic, 0) + 1
         split.start_ns = min(split.start_ns, timestamp_ns)
         split.end_ns = max(split.end_ns, timestamp_ns)
@@ -211,6 +213,7 @@ class BagWriter:
             raise BagError(f'{self.path / name}: cannot create split: {exc.strerror}') from exc
         self._mcap = Writer(self._stream, chunk_size=CHUNK_BYTES, compression=self._compression)
         self._mcap.start(profile='ros2', library='drive_bridge')
+        self._stream.flush()  # the magic and header on disk now: a recorder killed at once leaves an MCAP file
         self._channels = {}
         self._schemas = {}
         self._split_bytes = 0

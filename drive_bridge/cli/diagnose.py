@@ -13,9 +13,7 @@ from drive_bridge.bag.diagnose.inputs import parse_eds_args
 from drive_bridge.bag.diagnose.report_json import to_json
 from drive_bridge.bag.diagnose.summary import summary
 from drive_bridge.bag.source import open_recording
-
-NAME = 'diagnose'
-HELP = 'diagnose a bag or CAN trace: findings, timelines, SDO log, plots (HTML, JSON, summary)'
+from drive_bridge.cli.command import add_progress_option
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -29,7 +27,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help='HTML report (default: INPUT\'s name + .diagnosis.html in the current directory)')
     parser.add_argument('--json', type=Path, metavar='FILE', help='also write the diagnosis as JSON')
     parser.add_argument('--check', action='store_true', help='exit code 1 when there are error findings (for CI)')
-    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    add_progress_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:

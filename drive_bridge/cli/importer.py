@@ -5,8 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-NAME = 'import'
-HELP = 'convert a CAN trace (trc, asc, blf, candump log, csv, IXXAT MiniMon...) to a rosbag2 MCAP bag'
+from drive_bridge.cli.command import add_progress_option
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -15,13 +14,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--config', type=Path, help='bus configuration YAML to store with the frames')
     parser.add_argument('--skip-bad-lines', action='store_true',
                         help='skip lines the reader cannot parse (with a warning) instead of failing')
-    parser.add_argument('-q', '--quiet', action='store_true', help='no progress bar')
+    add_progress_option(parser, '-q', '--quiet')
 
 
 def run(args: argparse.Namespace) -> int:
     from drive_bridge.bag.importer import import_trace
 
-    report = import_trace(args.trace, args.output, args.config, progress=not args.quiet,
+    report = import_trace(args.trace, args.output, args.config, progress=not args.no_progress,
                           strict=not args.skip_bad_lines)
     print(report.summary())
     for warning in report.warnings:

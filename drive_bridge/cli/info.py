@@ -4,9 +4,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-NAME = 'info'
-HELP = 'show the topics, types, counts, duration and stored files of a bag (or the frames of a trace)'
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('bag', type=Path, help='bag directory, .mcap file or trace')

@@ -14,17 +14,19 @@ from typing import cast
 from drive_bridge.cli.command import Subcommand
 from drive_bridge.errors import DriveBridgeError
 
-# (verb, module under drive_bridge.cli, one-line help): the help is here so that listing the
-# verbs imports nothing.
+# (verb, module under drive_bridge.cli, one-line help): the one place of a verb's name and help
+# (here, so that listing the verbs imports nothing).
 COMMANDS: tuple[tuple[str, str, str], ...] = (
     ('sim', 'sim', 'host the simulated drives of a bus configuration on a CAN interface (until Ctrl-C)'),
-    ('record', 'record', 'record a bus passively (listen only) into a rosbag2 MCAP bag'),
-    ('import', 'importer', 'convert a CAN trace (trc, asc, blf, candump, csv, IXXAT MiniMon...) to a bag'),
-    ('recover', 'recover', 'make a bag whose recorder was killed readable'),
-    ('info', 'info', 'topics, types, counts, duration and stored files of a bag or trace'),
-    ('replay', 'replay', 'replay a bag or trace onto a CAN bus, or offline through the decoders into a bag'),
-    ('scan', 'scan', 'find the nodes on a live bus and write a starter bus config'),
-    ('diagnose', 'diagnose', 'diagnose a bag or CAN trace: findings, timelines, SDO log, plots (HTML, JSON)'),
+    ('record', 'record', 'record a bus passively (sends nothing: no SYNC, NMT or SDO) into a rosbag2 MCAP bag'),
+    ('import', 'importer',
+     'convert a CAN trace (trc, asc, blf, candump log, csv, IXXAT MiniMon...) to a rosbag2 MCAP bag'),
+    ('recover', 'recover',
+     'make a bag whose recorder was killed readable (rebuild the open split, rewrite metadata.yaml)'),
+    ('info', 'info', 'show the topics, types, counts, duration and stored files of a bag (or the frames of a trace)'),
+    ('replay', 'replay', 'replay a bag or trace onto a CAN bus (--onto) or through the decoders into a bag (--decode)'),
+    ('scan', 'scan', 'find the nodes on a live bus (identity, vendor, drive family) and write a starter bus config'),
+    ('diagnose', 'diagnose', 'diagnose a bag or CAN trace: findings, timelines, SDO log, plots (HTML, JSON, summary)'),
 )
 
 PROG = 'drive-bridge'

@@ -8,12 +8,11 @@ import threading
 from pathlib import Path
 from types import FrameType
 
-NAME = 'record'
-HELP = 'record a bus passively (listen only: no SYNC, NMT or SDO) into a rosbag2 MCAP bag'
+from drive_bridge.cli.command import add_progress_option
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.description = (HELP + '. For machines whose master is a PLC; Ctrl-C closes the bag. '
+    parser.description = (f'{parser.description}. For machines whose master is a PLC; Ctrl-C closes the bag. '
                           'With --config, the bus settings default to the config\'s, and the config and '
                           'its EDS/DCF files are stored in the bag.')
     parser.add_argument('-o', '--output', type=Path, required=True, help='bag directory to create')
@@ -24,7 +23,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--split-size-mb', type=float, default=0.0, help='rotate splits at this size (0: none)')
     parser.add_argument('--split-seconds', type=float, default=0.0, help='rotate splits after this long (0: none)')
     parser.add_argument('--duration', type=float, default=0.0, help='stop after this many seconds (0: Ctrl-C)')
-    parser.add_argument('-q', '--quiet', action='store_true', help='no progress line')
+    add_progress_option(parser, '-q', '--quiet')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,10 +61,11 @@ def run(args: argparse.Namespace) -> int:
         def report(stats: RecorderStats) -> None:
             print(f'\r{stats.frames} frames, {stats.dropped} dropped, {stats.bytes / 1e6:.1f} MB, '
                   f'split {stats.split}', end='', file=sys.stderr, flush=True)
-        print(f'recording {interface}:{channel} to {recorder.path} (listen only; Ctrl-C stops)', file=sys.stderr)
+        print(f'recording {interface}:{channel} to {recorder.path} (passive: sends nothing; Ctrl-C stops)',
+              file=sys.stderr)
         try:
             stats = record_passive(bus, recorder, stop, duration=args.duration,
-                                   report=None if args.quiet else report)
+                                   report=None if args.no_progress else report, name=f'{interface}:{channel}')
         except KeyboardInterrupt:
             stats = recorder.stop()
         finally:
@@ -73,5 +73,5 @@ def run(args: argparse.Namespace) -> int:
                 signal.signal(signal.SIGTERM, previous)
     finally:
         bus.shutdown()
-    print(('' if args.quiet else '\n') + stats.summary())
+    print(('' if args.no_progress else '\n') + stats.summary())
     return 1 if stats.error or stats.dropped else 0

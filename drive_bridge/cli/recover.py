@@ -4,9 +4,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-NAME = 'recover'
-HELP = 'make a bag whose recorder was killed readable (rebuild the open split, rewrite metadata.yaml)'
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('bag', type=Path, help='bag directory (or one .mcap split)')

@@ -11,9 +11,7 @@ from tqdm import tqdm  # type: ignore[import-untyped]
 
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.source import Recording, open_recording
-
-NAME = 'replay'
-HELP = 'replay a bag or trace onto a CAN bus (--onto) or through the decoders into a bag (--decode)'
+from drive_bridge.cli.command import add_progress_option
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -23,9 +21,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     what.add_argument('--decode', action='store_true',
                       help='decode offline (joint states, axis states, EMCY, bus events) into the bag -o')
     bus = parser.add_argument_group('--onto')
-    bus.add_argument('--interface', default='virtual', help='python-can interface (default: virtual)')
-    bus.add_argument('--channel', help='python-can channel')
-    bus.add_argument('--bitrate', type=int, help='bit/s, for interfaces that set it')
+    bus.add_argument('--interface', help='python-can interface (socketcan, pcan, virtual...; default: --config\'s)')
+    bus.add_argument('--channel', help='python-can channel (default: --config\'s)')
+    bus.add_argument('--bitrate', type=int, help='bit/s, for interfaces that set it (default: --config\'s)')
     bus.add_argument('--node', type=int, nargs='+', action='extend', default=[], metavar='N',
                      help='only frames from/to these nodes (--node 2 3 or --node 2 --node 3; their PDOs, SDOs, '
                           'EMCY, heartbeat, NMT commands to them; not SYNC)')
@@ -33,10 +31,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                      help='rx: frames the recording master received (the nodes); tx: frames it sent')
     bus.add_argument('--speed', type=float, default=1.0, help='time factor (2: twice as fast)')
     dec = parser.add_argument_group('--decode')
-    dec.add_argument('--config', type=Path, help='bus config (default: the one stored in the bag)')
+    parser.add_argument('--config', type=Path, help='bus config: --decode decodes with it (default: the one stored '
+                        'in the bag), --onto takes the bus from it')
     dec.add_argument('-o', '--output', type=Path, help='bag to write (must not exist)')
     dec.add_argument('--namespace', default='/drive_bridge', help="the bridge node's topics (default /drive_bridge)")
-    parser.add_argument('--quiet', action='store_true', help='no progress bar')
+    add_progress_option(parser, '--quiet')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,16 +46,23 @@ def run(args: argparse.Namespace) -> int:
 def _onto(args: argparse.Namespace, recording: Recording) -> int:
     from drive_bridge.bag.replay_bus import frame_filter, replay_onto
 
-    if args.channel is None:
-        raise BagError('replay --onto: give the bus with --channel (and --interface)')
+    interface, channel, bitrate = args.interface, args.channel, args.bitrate
+    if args.config is not None:  # the bus of the config, unless given
+        from drive_bridge.config.loader import load_bus_config
+        config = load_bus_config(args.config)
+        interface = interface or config.bus.interface
+        channel = channel if channel is not None else config.bus.channel
+        bitrate = bitrate if bitrate is not None else config.bus.bitrate
+    if not interface or channel is None:  # no default: 'virtual' would replay into this process only
+        raise BagError('replay --onto: give the bus with --interface and --channel (or --config with a bus section)')
     keep = frame_filter(args.node, args.direction)
-    kwargs = {'bitrate': args.bitrate} if args.bitrate else {}
+    kwargs = {'bitrate': bitrate} if bitrate else {}
     try:
-        bus = can.Bus(interface=args.interface, channel=args.channel, **kwargs)
+        bus = can.Bus(interface=interface, channel=channel, **kwargs)
     except Exception as exc:
-        raise BagError(f'cannot open CAN bus interface={args.interface!r} channel={args.channel!r}: {exc}') from exc
+        raise BagError(f'cannot open CAN bus interface={interface!r} channel={channel!r}: {exc}') from exc
     try:
-        with tqdm(unit=' frames', disable=args.quiet, desc='replay') as bar:
+        with tqdm(unit=' frames', disable=args.no_progress, desc='replay') as bar:
             stats = replay_onto(recording.frames(), bus, speed=args.speed, keep=keep, on_frame=bar.update)
     finally:
         bus.shutdown()
@@ -67,15 +73,17 @@ def _onto(args: argparse.Namespace, recording: Recording) -> int:
 def _decode(args: argparse.Namespace, recording: Recording) -> int:
     from drive_bridge.bag.decoded_msgs import Topics
     from drive_bridge.bag.offline import decode_into, recording_config
+    from drive_bridge.bag.recorder import config_files
     from drive_bridge.bag.writer import BagWriter
 
     if args.output is None:
         raise BagError('replay --decode: give the bag to write with -o OUTPUT')
     config = recording_config(recording, args.config)
     config_yaml = args.config.read_text(encoding='utf-8') if args.config is not None else recording.config_yaml
-    writer = BagWriter(args.output, config_yaml=config_yaml, files=recording.files)
+    files = config_files(config) if args.config is not None else recording.files  # the config's EDS with it
+    writer = BagWriter(args.output, config_yaml=config_yaml, files=files)
     try:
-        with tqdm(unit=' frames', disable=args.quiet, desc='decode') as bar:
+        with tqdm(unit=' frames', disable=args.no_progress, desc='decode') as bar:
             stats = decode_into(recording.frames(), config, writer, Topics(args.namespace.rstrip('/')),
                                 on_frame=bar.update)
     except BaseException:

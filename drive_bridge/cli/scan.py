@@ -9,12 +9,10 @@ import canopen
 from drive_bridge.bag.scan import ScanError, parse_node_ids, scan
 from drive_bridge.bag.starter import starter_config
 
-NAME = 'scan'
-HELP = 'find the nodes on a live bus (identity, vendor, drive family) and write a starter bus config'
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('--interface', default='virtual', help='python-can interface (default: virtual)')
+    parser.add_argument('--interface', required=True,
+                        help='python-can interface (socketcan, pcan, virtual...; no default: the bus is real)')
     parser.add_argument('--channel', required=True, help='python-can channel')
     parser.add_argument('--bitrate', type=int, help='bit/s (default: the interface\'s)')
     parser.add_argument('--nodes', default='1-127', help='node ids to ask, e.g. 1-127 or 2,3,10-12')

@@ -17,9 +17,6 @@ from types import FrameType
 
 from drive_bridge.cli.errors import CommandError
 
-NAME = 'sim'
-HELP = 'host the simulated drives of a bus configuration on a CAN interface (until Ctrl-C)'
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('config', type=Path, help='bus configuration YAML (its nodes are simulated)')

@@ -58,7 +58,12 @@ class FrameTap:
 
     def remove_listener(self, listener: FrameListener) -> None:
         with self._lock:
-            self._listeners = [x for x in self._listeners if x is not listener]
+            # ``!=``, not ``is not``: each ``obj.method`` access is a new bound method, equal to the last
+            self._listeners = [x for x in self._listeners if x != listener]
+
+    def __len__(self) -> int:
+        """How many listeners are attached (a detached recorder must not stay on the bus threads)."""
+        return len(self._listeners)
 
     def __call__(self, msg: can.Message) -> None:
         for listener in self._listeners:

@@ -105,6 +105,7 @@ class RecordControl:
         self.config_text = config_text
         self.params = declare_record(node, config.record)
         self.recorder: Recorder | None = None
+        self._listener: Any = None  # the bound method given to the tap, removed as the same object
         self.last: RecorderStats | None = None
         self._events_topic = f'{node.get_fully_qualified_name()}/events'
         master.add_event_listener(self.on_event)
@@ -149,7 +150,8 @@ class RecordControl:
         self.recorder = Recorder(path, channel=channel, split_bytes=split_bytes,
                                  split_seconds=self.params.split_seconds or None, config_yaml=self.config_text,
                                  files=config_files(self.config))
-        self.master.add_frame_listener(self.recorder.on_frame)
+        self._listener = self.recorder.on_frame
+        self.master.add_frame_listener(self._listener)
         self.node.get_logger().info(f'recording to {path}')
         return self.recorder
 
@@ -157,8 +159,8 @@ class RecordControl:
         recorder = self.recorder
         if recorder is None:
             raise BagError('not recording')
-        self.master.tap.remove_listener(recorder.on_frame)
-        self.recorder = None
+        self.master.tap.remove_listener(self._listener)
+        self.recorder = self._listener = None
         self.last = stats = recorder.stop()
         self.node.get_logger().info(f'recording stopped: {stats.summary()}')
         return stats

@@ -171,21 +171,29 @@ class Engine:
         stuffed_bins = d.busload.stuffed
         inv = 1.0 / BIN_S
         t0: float | None = None
-        n = errors = extended = remote = 0
-        t = 0.0
+        n = errors = extended = remote = backwards = invalid = 0
+        t = last = end = 0.0
+        first_back = first_invalid = 0.0
         liveness = d.liveness
         for msg in frames:
             t = msg.timestamp
             if t0 is None:
-                t0 = d.t0 = d.ctx.t0 = t
+                t0 = d.t0 = d.ctx.t0 = last = end = t
             n += 1
+            if t < last:  # a trace merged from two sources, or a clock stepped: counted, binned at the start
+                if not backwards:
+                    first_back = t
+                backwards += 1
+            elif t > end:
+                end = t
+            last = t
             if msg.is_error_frame:
                 if not errors:
                     d.first_error = t
                 errors += 1
                 continue
             dlc = msg.dlc if msg.dlc <= 8 else 8
-            b = int((t - t0) * inv)
+            b = int((t - t0) * inv) if t >= t0 else 0
             if b >= len(nominal_bins):
                 d.busload.grow(b + 64)
             if msg.is_extended_id:
@@ -194,6 +202,11 @@ class Engine:
                 stuffed_bins[b] += EXT_STUFF[0 if msg.is_remote_frame else dlc]
                 continue
             cob = msg.arbitration_id
+            if cob > 0x7FF:  # not an 11-bit identifier: a broken trace line
+                if not invalid:
+                    first_invalid = t
+                invalid += 1
+                continue
             if msg.is_remote_frame:
                 remote += 1
                 remote_counts[cob] += 1
@@ -211,10 +224,19 @@ class Engine:
         if t0 is None:
             raise DiagnoseError(f'{d.path}: the recording holds no CAN frames')
         d.frames, d.error_frames, d.extended_frames, d.remote_frames = n, errors, extended, remote
-        d.duration = t - t0
+        d.duration = end - t0
         del nominal_bins[int(d.duration * inv) + 1:]
         del stuffed_bins[int(d.duration * inv) + 1:]
-        self._finish(t)
+        if backwards:
+            d.ctx.add(Severity.WARNING, max(first_back, t0), None, f'clock went back {backwards} times',
+                      'frames out of time order (traces merged, or the logger\'s clock stepped): '
+                      'their times count from the start of the recording', 'clock-backwards')
+        if invalid:
+            d.ctx.add(Severity.WARNING, first_invalid, None,
+                      f'{invalid} frame(s) with a standard identifier above 0x7FF skipped',
+                      'an 11-bit CAN identifier is at most 0x7FF: the trace is damaged or misparsed',
+                      'invalid-id')
+        self._finish(end)
         return d
 
     def _finish(self, end: float) -> None:

@@ -2,7 +2,6 @@
 with its EDS/DCF files) and EDS files per node (``--eds NODE=FILE``)."""
 from __future__ import annotations
 
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -10,8 +9,9 @@ from pathlib import Path
 from drive_bridge.bag.diagnose.errors import DiagnoseError
 from drive_bridge.bag.diagnose.model import Context, NodeInfo
 from drive_bridge.bag.source import Recording
+from drive_bridge.bag.stored import load_stored_config
 from drive_bridge.config.eds import load_object_dictionary
-from drive_bridge.config.loader import load_bus_config, load_bus_config_text
+from drive_bridge.config.loader import load_bus_config
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.registry import get_family
 from drive_bridge.model import BusConfig
@@ -40,17 +40,6 @@ def parse_eds_args(items: Sequence[str]) -> dict[int, Path]:
     return out
 
 
-def _stored_config(recording: Recording) -> BusConfig:
-    """The config stored in the bag, its EDS/DCF files written beside it so its paths resolve."""
-    assert recording.config_yaml is not None
-    with tempfile.TemporaryDirectory(prefix='drive-bridge-diagnose-') as tmp:
-        for name, data in recording.files.items():
-            target = Path(tmp) / name
-            target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_bytes(data)
-        return load_bus_config_text(recording.config_yaml, f'{recording.path} (stored config)', tmp)
-
-
 def load_inputs(recording: Recording, config: Path | None = None, eds: Mapping[int, Path] | None = None,
                 bitrate: int | None = None) -> DiagnoseInputs:
     inputs = DiagnoseInputs(eds=dict(eds or {}), bitrate=bitrate)
@@ -61,7 +50,8 @@ def load_inputs(recording: Recording, config: Path | None = None, eds: Mapping[i
             inputs.config = load_bus_config(config)
             inputs.config_source = str(config)
         elif recording.config_yaml:
-            inputs.config = _stored_config(recording)
+            inputs.config = load_stored_config(recording.config_yaml, recording.files,
+                                               f'{recording.path} (stored config)')
             inputs.config_source = f'stored in {recording.path.name}'
     except DiagnoseError:
         raise

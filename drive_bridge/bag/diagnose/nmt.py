@@ -5,9 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from drive_bridge.bag.diagnose.model import Context, Severity
+from drive_bridge.master.master import NMT_COMMANDS as COMMANDS  # one table of the command names
 
-COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational', 0x81: 'reset node',
-            0x82: 'reset communication'}
 RESETS = (0x81, 0x82)
 STATES = {0x00: 'boot-up', 0x04: 'stopped', 0x05: 'operational', 0x7F: 'pre-operational'}
 RESET_TO_BOOT_S = 10.0  # a boot-up this soon after an NMT reset is the reset's

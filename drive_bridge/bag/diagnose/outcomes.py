@@ -29,6 +29,7 @@ class Outcomes:
             if record.event.is_reset:
                 self.resets.setdefault(record.node, []).append(record.time)
         self.enabled: dict[int, list[float]] = {}
+        self.drives = {axis.node for axis in cia402.axes.values()}  # nodes with CiA 402 axes: enabled again?
         self.left_fault: dict[int, list[float]] = {}
         for axis in cia402.axes.values():
             for t, old, new in axis.transitions:
@@ -57,7 +58,8 @@ class Outcomes:
             if enabled is not None:
                 outcome = f'recovered: operation enabled again at t={enabled:.3f} s'
             elif cleared:
-                outcome = f'fault cleared at t={min(cleared):.3f} s, not enabled again in the recording'
+                outcome = f'fault cleared at t={min(cleared):.3f} s' + (
+                    ', not enabled again in the recording' if node in self.drives else '')
             else:
                 outcome = 'unresolved at the end of the recording'
         return replace(finding, outcome=outcome) if outcome else finding
