@@ -170,9 +170,11 @@ def test_frames_are_four_character_chunks_to_2026_1_and_reads_of_2026_2(bench: B
     assert b''.join(f[4:4 + n] for f, n in zip(downloads, sizes)) == b'DRV.ACC\r\n'
     assert downloads[0] == b'\x23\x26\x20\x01DRV.', "the manual's first frame: 601: 23 26 20 01 44 52 56 2E"
     assert uploads and all(f == b'\x40\x26\x20\x02\x00\x00\x00\x00' for f in uploads)
-    answers = [f.data for f in bench.sniffer.frames(SDO_TX, mark) if f.data[1:4] == b'\x26\x20\x02']
-    reply = b''.join(a[4:4 + 4 - (a[0] >> 2 & 3)] for a in answers)
-    assert reply.startswith(b'>') and reply.endswith(b'\n\r\n') and b'[counts/s^2]' in reply
+    def reply() -> bytes:  # the sniffer may log the last answer after the read has returned
+        answers = [f.data for f in bench.sniffer.frames(SDO_TX, mark) if f.data[1:4] == b'\x26\x20\x02']
+        return b''.join(a[4:4 + 4 - (a[0] >> 2 & 3)] for a in answers)
+    eventually(lambda: reply().endswith(b'\n\r\n'), 2, 'the whole reply on the bus')
+    assert reply().startswith(b'>') and b'[counts/s^2]' in reply()
 
 
 class _Port:
