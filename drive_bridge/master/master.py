@@ -307,9 +307,23 @@ class Master:
         return self.sync.cycles if self.sync is not None else self._cycle_count
 
     def _check_freshness(self, node: NodeRuntime, now: float) -> None:
-        """A node alive by heartbeat whose cyclic TPDO stopped: its axes are held (HALT, so the
-        cycle still tells the drive to stay put) and it is unavailable until the TPDO is back."""
-        stale = node.freshness.poll(now, self._sync_count())
+        """A node alive by heartbeat (or guarding) whose cyclic TPDO stopped: its axes are held
+        (HALT, so the cycle still tells the drive to stay put) and it is unavailable until the
+        TPDO is back. A node not started sends no TPDO by right (the clocks restart; a stale one
+        that left OPERATIONAL is configured again), and a silent one is for liveness to judge."""
+        syncs = self._sync_count()
+        if node.boot_state not in (BootState.OPERATIONAL, BootState.STALE):
+            return
+        if node.nmt_state is not NmtState.OPERATIONAL:
+            node.freshness.arm(now, syncs)
+            if node.boot_state is BootState.STALE:  # alive but not started: configure again
+                self._reset_axes(node)
+                node.set_boot_state(BootState.WAITING)
+                node.next_boot_time = 0.0
+            return
+        if not self._answers(node, now):
+            return
+        stale = node.freshness.poll(now, syncs)
         if stale and node.boot_state is BootState.OPERATIONAL:
             joints = [a.joint for a in node.config.axes]
             for joint in joints:
@@ -319,14 +333,25 @@ class Master:
                     log.warning('holding %s: %s', joint, exc)
             reason = '; '.join(str(s) for s in stale)
             node.set_boot_state(BootState.STALE, reason)
+            alive = 'it answers node guarding' if node.guard is not None else 'its heartbeat continues'
             self._emit(EventKind.PDO_STALE, Level.ERROR,
-                       f'node {node.node_id} ({node.name}): {reason} while its heartbeat continues; '
+                       f'node {node.node_id} ({node.name}): {reason} while {alive}; '
                        f'joint(s) {", ".join(joints)} held (HALT), streams aborted', node)
-        elif not stale and node.boot_state is BootState.STALE and node.nmt_state is NmtState.OPERATIONAL:
+        elif not stale and node.boot_state is BootState.STALE:
             node.set_boot_state(BootState.OPERATIONAL)
             self._emit(EventKind.PDO_FRESH, Level.WARN,
                        f'node {node.node_id} ({node.name}): TPDOs fresh again; its axes stay held '
                        '(HALT) until resumed', node)
+
+    @staticmethod
+    def _answers(node: NodeRuntime, now: float) -> bool:
+        """Its last heartbeat or guarding reply is at most two of its periods old: a node that
+        fell silent is judged by liveness (heartbeat or guarding lost), not by its TPDOs."""
+        cfg = node.config
+        period = (cfg.guard_time_ms if node.guard is not None else cfg.heartbeat_producer_ms) / 1000.0
+        if period <= 0 or node.last_heartbeat is None:
+            return True
+        return now - node.last_heartbeat <= 2 * period
 
     def _on_node_state(self, node: NodeRuntime) -> None:
         """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots."""
@@ -366,13 +391,13 @@ class Master:
         if guard is None or not node.guard_active:
             return
         for event in guard.poll(now):
-            if event.kind is GuardEventKind.LOST and node.boot_state is BootState.OPERATIONAL:
+            if event.kind is GuardEventKind.LOST and node.boot_state in (BootState.OPERATIONAL, BootState.STALE):
                 node.set_boot_state(BootState.LOST, f'node guarding lost: {event.message}')
                 self._emit(EventKind.GUARDING_LOST, Level.ERROR,
                            f'{event.message} ({node.name}); its axes are unavailable', node)
             elif event.kind is GuardEventKind.TOGGLE_ERROR:
                 self._emit(EventKind.GUARDING_ERROR, Level.WARN, f'{event.message} ({node.name})', node)
-            elif event.kind is GuardEventKind.BACK and node.boot_state is BootState.LOST:
+            elif event.kind is GuardEventKind.BACK and node.boot_state in (BootState.LOST, BootState.STALE):
                 self._emit(EventKind.GUARDING_BACK, Level.WARN,
                            f'{event.message} ({node.name}): answers again; configuring it again '
                            '(its axes stay disabled until enabled)', node)
