@@ -190,3 +190,22 @@ def test_a_dead_guarded_node_is_guarding_lost_and_configured_again_when_it_answe
         sim.drive(4).mute(False)
         events.wait(EventKind.GUARDING_BACK, 3.0)
         eventually(lambda: len(events.of(EventKind.BOOTED)) > booted, 5.0, 'lift_drive configured again')
+
+
+def test_a_stale_node_is_never_re_enabled_by_the_bridge() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        events = Events(master)
+        lift = master.axes['lift_joint']
+        lift.enable(timeout=2.0)
+        sim.drive(4).stop_tpdos()
+        events.wait(EventKind.PDO_STALE, 3.0)
+        # its real state is unknown: a controlword that cannot raise one (quick stop, bit 2 low)
+        eventually(lambda: sim.drive(4).axis(0).controlword & 0x0F == 0x02, 1.0, 'quick stop sent')
+        eventually(lambda: sim.drive(4).axis(0).statusword & 0x6F != 0x27, 2.0, 'drive left operation enabled')
+        sim.drive(4).stop_tpdos(False)
+        events.wait(EventKind.PDO_FRESH, 3.0)
+        eventually(lambda: lift.snapshot().available, 2.0, 'lift available')
+        time.sleep(0.3)
+        assert lift.snapshot().state is not State.OPERATION_ENABLED  # the enable intent was dropped
+        lift.halt(False)
+        lift.enable(timeout=2.0)  # an explicit enable moves it again
