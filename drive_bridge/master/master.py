@@ -82,6 +82,7 @@ class Master:
         self._parameters: dict[int, ParameterAccess] = {}
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
+        self._safety_emcy_listeners: list[Callable[[EmcyEvent], None]] = []
         self._cycle_listeners: list[Callable[[int], None]] = []
         self.feedback = CycleFeedback()
         self.sync: SyncProducer | None = None
@@ -104,8 +105,14 @@ class Master:
     def add_event_listener(self, listener: Callable[[BusEvent], None]) -> None:
         self._event_listeners = [*self._event_listeners, listener]
 
-    def add_emcy_listener(self, listener: Callable[[EmcyEvent], None]) -> None:
-        self._emcy_listeners = [*self._emcy_listeners, listener]
+    def add_emcy_listener(self, listener: Callable[[EmcyEvent], None], safety: bool = False) -> None:
+        """Reporting listeners get the EMCYs within the per-node rate limit (a babbling node is
+        counted, not reported); ``safety`` listeners (reactions such as aborting a stream on a
+        buffer underflow) get every EMCY, also in a flood (Notifier thread, keep it short)."""
+        if safety:
+            self._safety_emcy_listeners = [*self._safety_emcy_listeners, listener]
+        else:
+            self._emcy_listeners = [*self._emcy_listeners, listener]
 
     def add_cycle_listener(self, listener: Callable[[int], None]) -> None:
         """Called after each cycle's SYNC and set-points (cycle thread, keep it short)."""
@@ -127,8 +134,10 @@ class Master:
             except Exception as exc:  # a broken listener must not stop supervision
                 log.error('event listener failed: %r', exc)
 
-    def _on_emcy(self, event: EmcyEvent) -> None:
-        for listener in self._emcy_listeners:
+    def _on_emcy(self, event: EmcyEvent, reported: bool) -> None:
+        """Every EMCY of a node (Notifier thread); ``reported``: within its rate limit."""
+        listeners = [*self._safety_emcy_listeners, *self._emcy_listeners] if reported else self._safety_emcy_listeners
+        for listener in listeners:
             try:
                 listener(event)
             except Exception as exc:

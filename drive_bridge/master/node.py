@@ -64,7 +64,7 @@ class NodeRuntime:
     """Everything the master tracks about one node; thread-safe snapshot()."""
 
     def __init__(self, network: canopen.Network, config: NodeConfig, master: MasterConfig,
-                 on_emcy: Callable[[EmcyEvent], None], on_error: Callable[[str], None]) -> None:
+                 on_emcy: Callable[[EmcyEvent, bool], None], on_error: Callable[[str], None]) -> None:
         self.config = config
         self.family = get_family(config.family)
         self.network = network
@@ -175,9 +175,9 @@ class NodeRuntime:
         event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
         self._emcy.append(event)
         limit = self.emcy_limit
-        if limit.allow(time.monotonic()):
-            self._on_emcy(event)
-        elif not limit.flooding:  # a babbling node: reported once per episode, then counted
+        reported = limit.allow(time.monotonic())
+        self._on_emcy(event, reported)  # safety listeners get every EMCY, reporting ones the allowed
+        if not reported and not limit.flooding:  # a babbling node: reported once per episode, then counted
             limit.flooding = True
             self._on_error(f'node {self.node_id} ({self.name}): EMCY flood, more than {EMCY_RATE:g}/s '
                            f'(latest 0x{event.code:04X} {event.text}); the excess is counted, not reported '
