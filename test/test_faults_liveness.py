@@ -209,3 +209,27 @@ def test_a_stale_node_is_never_re_enabled_by_the_bridge() -> None:
         assert lift.snapshot().state is not State.OPERATION_ENABLED  # the enable intent was dropped
         lift.halt(False)
         lift.enable(timeout=2.0)  # an explicit enable moves it again
+
+
+def test_an_error_in_one_supervision_step_is_reported_and_supervision_goes_on() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        events = Events(master)
+        lift = master.axes['lift_joint']
+        reset = lift.on_node_reset
+        calls = []
+
+        def failing_once() -> None:  # a family driver's hook that raises
+            calls.append(1)
+            if len(calls) == 1:
+                raise RuntimeError('broken hook')
+            reset()
+        lift.on_node_reset = failing_once
+        sim.drive(4).stop_tpdos()
+        events.wait(EventKind.PDO_STALE, 3.0)
+        booted = len(events.of(EventKind.BOOTED))
+        master.nmt(0x80, 4)  # the stale node leaves OPERATIONAL: its axes are reset (and the hook raises)
+        eventually(lambda: sim.drive(4).nmt_state == 'PRE-OPERATIONAL', 2.0, 'drive pre-operational')
+        sim.drive(4).stop_tpdos(False)
+        error = events.wait(EventKind.ERROR, 3.0)
+        assert error.message.startswith("node 4 (lift_drive): supervision step failed: RuntimeError('broken hook')")
+        eventually(lambda: len(events.of(EventKind.BOOTED)) > booted, 5.0, 'lift_drive configured again')

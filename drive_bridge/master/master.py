@@ -44,6 +44,7 @@ NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
 SUPERVISOR_PERIOD = 0.02
 ADHOC_SDO_TIMEOUT = 0.3
 LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets
+SUPERVISION_ERROR_PERIOD = 10.0  # s between two reports of the same failing supervision step
 BUS_DOWN_AFTER = 0.1  # s a bus must keep failing to count as down (a single glitch is only counted)
 BUS_REOPEN_AFTER = 1.0  # s of a failing bus before the master reopens an interface it opened
 
@@ -83,6 +84,7 @@ class Master:
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
         self._safety_emcy_listeners: list[Callable[[EmcyEvent], None]] = []
+        self._supervision_errors: dict[str, float] = {}  # subject -> monotonic time last reported
         self._cycle_listeners: list[Callable[[int], None]] = []
         self.feedback = CycleFeedback()
         self.sync: SyncProducer | None = None
@@ -253,17 +255,34 @@ class Master:
             node.add_state_listener(functools.partial(self._on_node_state, node))
         while not self._stop.wait(SUPERVISOR_PERIOD):
             now = time.monotonic()
-            if self._check_bus(now):
-                continue  # nothing on a dead bus can be judged
-            unknown = self.unknown_frames.report(now)
-            if unknown:
-                self._emit(EventKind.UNKNOWN_FRAMES, Level.WARN, f'bus {self.config.bus.channel}: {unknown}')
+            try:
+                if self._check_bus(now):
+                    continue  # nothing on a dead bus can be judged
+                unknown = self.unknown_frames.report(now)
+                if unknown:
+                    self._emit(EventKind.UNKNOWN_FRAMES, Level.WARN, f'bus {self.config.bus.channel}: {unknown}')
+            except Exception as exc:  # supervision goes on: the next round tries again
+                self._supervision_failed(f'bus {self.config.bus.channel}', exc, now)
+                continue
             for node in self.nodes.values():
-                self._check_heartbeat(node, now)
-                self._check_guarding(node, now)
-                self._check_freshness(node, now)
-                if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
-                    self._start_boot(node)
+                try:
+                    self._check_heartbeat(node, now)
+                    self._check_guarding(node, now)
+                    self._check_freshness(node, now)
+                    if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
+                        self._start_boot(node)
+                except Exception as exc:  # the other nodes are still supervised
+                    self._supervision_failed(f'node {node.node_id} ({node.name})', exc, now, node)
+
+    def _supervision_failed(self, what: str, exc: Exception, now: float, node: NodeRuntime | None = None) -> None:
+        """An unexpected error in one supervision step: logged every time, an ERROR event at
+        most every SUPERVISION_ERROR_PERIOD per subject (a step failing each round floods nothing)."""
+        log.exception('supervising %s failed', what)
+        if now - self._supervision_errors.get(what, -math.inf) >= SUPERVISION_ERROR_PERIOD:
+            self._supervision_errors[what] = now
+            self._emit(EventKind.ERROR, Level.ERROR,
+                       f'{what}: supervision step failed: {exc!r} (retried every {SUPERVISOR_PERIOD * 1000:.0f} ms; '
+                       f'reported at most every {SUPERVISION_ERROR_PERIOD:g} s)', node)
 
     def _check_bus(self, now: float) -> bool:
         """Bus-off or a failing interface: report once, every node unavailable (streams abort,
