@@ -70,12 +70,7 @@ class NodeRuntime:
         self.network = network
         self.remote = canopen.RemoteNode(config.node_id, config.od)
         network.add_node(self.remote)
-        # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
-        network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
-        network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
         self.liveness = self.family.liveness(config)
-        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
-            self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
         self.sdo = SdoChannel(self.remote, config.timeouts.sdo, config.timeouts.sdo_retries)
         self.process = ProcessImage(config.od, config.rpdo, config.tpdo, self.family.sent_on_write)
         for cob_id in self.process.rx_layouts:
@@ -107,6 +102,12 @@ class NodeRuntime:
         self.emcy_limit = TokenBucket(EMCY_RATE, EMCY_BURST)
         self._state_listeners: list[Callable[[], None]] = []
         self.lock = threading.RLock()
+        # subscribed last: a frame may arrive at once (a heartbeat during Master.start)
+        # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
+        network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
+        network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
+        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
+            self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
 
     @property
     def name(self) -> str:
