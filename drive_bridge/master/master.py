@@ -382,7 +382,14 @@ class Master:
         return now - node.last_heartbeat <= 2 * period
 
     def _on_node_state(self, node: NodeRuntime) -> None:
-        """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots."""
+        """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots; a node
+        whose boot failed (also permanently) and sends a boot-up (reset, a replaced drive) is
+        booted again at once."""
+        if node.bootup_seen.is_set() and node.boot_state is BootState.FAILED:
+            node.bootup_seen.clear()
+            node.boot_refusal = None
+            node.next_boot_time = 0.0
+            return
         if node.bootup_seen.is_set() and node.boot_state in (BootState.OPERATIONAL, BootState.LOST,
                                                              BootState.STALE):
             node.bootup_seen.clear()
@@ -464,7 +471,6 @@ class Master:
     def _boot(self, node: NodeRuntime) -> None:
         attempts = 1 + max(0, node.config.timeouts.boot_retries)
         error = ''
-        previous: BootError | None = None
         for _ in range(attempts):
             if self._stop.is_set():
                 return
@@ -474,19 +480,22 @@ class Master:
             except BootError as exc:
                 error = str(exc)
                 log.info('boot attempt %d failed: %s', node.boot_attempts, error)
+                # the previous refusal is kept across rounds: also with boot_retries 0
+                previous, node.boot_refusal = node.boot_refusal, exc
                 if repeats_identically(exc, previous):
+                    node.bootup_seen.clear()  # the boot's own boot-up; a later one is a new drive
                     node.next_boot_time = math.inf
                     node.set_boot_state(BootState.FAILED, error)
                     self._emit(EventKind.BOOT_FAILED, Level.ERROR,
                                f'{error} (the same refusal on {node.boot_attempts} attempts: permanent, not '
                                'retried; change the configuration)', node)
                     return
-                previous = exc
                 continue
             except Exception as exc:  # never let a boot thread die silently
                 error = f'node {node.node_id} ({node.name}) boot failed unexpectedly: {exc!r}'
                 continue
             node.bootup_seen.clear()  # the boot's own boot-up; a later one is a real reboot
+            node.boot_refusal = None
             self._settle_axes(node)
             node.set_boot_state(BootState.OPERATIONAL)
             self._emit(EventKind.BOOTED, Level.INFO,
@@ -494,6 +503,7 @@ class Master:
                        f'(attempt {node.boot_attempts})', node)
             return
         interval = node.config.timeouts.boot_retry_interval
+        node.bootup_seen.clear()
         node.next_boot_time = time.monotonic() + interval
         node.set_boot_state(BootState.FAILED, error)
         self._emit(EventKind.BOOT_FAILED, Level.ERROR,

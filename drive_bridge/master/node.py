@@ -9,6 +9,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import canopen
 
@@ -22,6 +23,9 @@ from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
 from drive_bridge.master.sdo_worker import SdoWorker
 from drive_bridge.model import MasterConfig, NodeConfig
+
+if TYPE_CHECKING:
+    from drive_bridge.master.boot import BootError
 
 EMCY_HISTORY = 32
 
@@ -90,6 +94,7 @@ class NodeRuntime:
         self.boot_attempts = 0
         self.boot_error = ''
         self.next_boot_time = 0.0
+        self.boot_refusal: BootError | None = None  # the last boot's refusal, kept across rounds
         self.nmt_state = NmtState.UNKNOWN
         self.last_heartbeat: float | None = None
         self.bootup_seen = threading.Event()
