@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from drive_bridge.families import get_family
-from drive_bridge.model import BusConfig, MasterConfig, NodeConfig, PdoConfig
+from drive_bridge.model import BusConfig, MasterConfig, ModeChoice, NodeConfig, PdoConfig
 
 WARN_LOAD = 0.70
 INTERPOLATED_POSITION = 7
@@ -79,11 +79,19 @@ def _tpdo_per_cycle(pdo: PdoConfig, period: float) -> float:
 
 
 def _idle(node: NodeConfig, pdo: PdoConfig) -> bool:
-    """An RPDO sent only when written (the interpolation data of ip), on a node with no axis in ip."""
+    """An RPDO sent only when written (the interpolation data of ip), on a node with no axis
+    that can run ip (configured, or among the modes picked at boot)."""
     family = get_family(node.family)
     if not any(family.sent_on_write(e.index, e.subindex) for e in pdo.mapping):
         return False
-    return not any(INTERPOLATED_POSITION in (a.mode, a.position_mode) for a in node.axes)
+    return not any(INTERPOLATED_POSITION in (a.mode, a.position_mode) or _may_pick_ip(a.auto_mode)
+                   for a in node.axes)
+
+
+def _may_pick_ip(auto: ModeChoice | None) -> bool:
+    """The boot may pick ip: among the candidates of a derived map (explicit PDOs, candidates
+    None, are counted as configured: the user mapped them for the modes they named)."""
+    return auto is not None and auto.candidates is not None and INTERPOLATED_POSITION in auto.candidates
 
 
 def _background(master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> tuple[float, float]:
