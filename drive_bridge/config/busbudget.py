@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from drive_bridge.cia402.bootmodes import has_mode
 from drive_bridge.families import get_family
 from drive_bridge.model import BusConfig, MasterConfig, ModeChoice, NodeConfig, PdoConfig
 
@@ -89,9 +90,13 @@ def _idle(node: NodeConfig, pdo: PdoConfig) -> bool:
 
 
 def _may_pick_ip(auto: ModeChoice | None) -> bool:
-    """The boot may pick ip: among the candidates of a derived map (explicit PDOs, candidates
-    None, are counted as configured: the user mapped them for the modes they named)."""
-    return auto is not None and auto.candidates is not None and INTERPOLATED_POSITION in auto.candidates
+    """The boot will pick ip: the first of a derived map's candidates the drive supports (as
+    far as the EDS tells; 0x6502 is read at boot). Explicit PDOs (candidates None) are counted
+    for the modes the user named."""
+    if auto is None or not auto.candidates:
+        return False
+    first = next((m for m in auto.candidates if has_mode(auto.inferred_support, m)), None)
+    return first == INTERPOLATED_POSITION
 
 
 def _background(master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> tuple[float, float]:
