@@ -84,6 +84,8 @@ class PdoPlan:
     axes: tuple[AxisConfig, ...]
     polled: tuple[tuple[int, int], ...] = ()
     summary: str = ''
+
+
 class IdentityMatch(IntEnum):
     """How surely a node found on a bus (0x1000, 0x1008, 0x1018) is one of a family's drives."""
 
@@ -157,9 +159,9 @@ class DriveFamily:
     pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of the family's PVT interpolation, if any
     default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
     interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
-    accepted_modes: ClassVar[frozenset[int] | None] = None
+    accepted_modes: ClassVar[frozenset[int] | None] = None  # the modes it takes, when 0x6502 says otherwise
     # an axis that names no mode gets the best streaming mode the drive's 0x6502 has (at boot)
-    modes_from_drive: ClassVar[bool] = False  # the modes it takes, when 0x6502 says otherwise
+    modes_from_drive: ClassVar[bool] = False
     # default of the axis keys mode / position_mode / velocity_mode / effort_mode, where they
     # differ from csp / csp / csv / cst
     default_modes: ClassVar[Mapping[str, str]] = {}
