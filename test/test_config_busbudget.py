@@ -10,8 +10,9 @@ import can
 import pytest
 
 from bustools import config_from, demo_data, running
+from drive_bridge.cia301.busbits import frame_bits
 from drive_bridge.config import ConfigError
-from drive_bridge.config.busbudget import budget_of, frame_bits
+from drive_bridge.config.busbudget import budget_of
 
 
 def demo_at(sync_us: int, **bus: object) -> dict:
@@ -22,7 +23,9 @@ def demo_at(sync_us: int, **bus: object) -> dict:
 
 
 def test_frame_bits_with_worst_case_stuffing() -> None:
-    assert frame_bits(8) == 135 and frame_bits(0) == 55 and frame_bits(6) == 115
+    assert frame_bits(8, stuffed=True) == 135 and frame_bits(0, stuffed=True) == 55
+    assert frame_bits(6, stuffed=True) == 115 and frame_bits(8) == 111
+    assert frame_bits(8, remote=True) == 47 and frame_bits(8, extended=True) == 131
 
 
 def test_the_demo_fits_at_4_ms_and_the_check_stays_quiet() -> None:
