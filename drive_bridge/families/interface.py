@@ -35,6 +35,7 @@ import canopen
 from canopen import ObjectDictionary
 
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
+from drive_bridge.cia301.vendors import vendor_name as cia301_vendor_name
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
@@ -228,9 +229,10 @@ class DriveFamily:
                    default=IdentityMatch.NONE)
 
     def vendor_name(self, vendor_id: int) -> str | None:
-        """The vendor of ``vendor_id`` (0x1018:1) when this family knows it."""
+        """The vendor of ``vendor_id`` (0x1018:1): from the family's shipped EDS files, else
+        from the excerpt of CiA's register (drive_bridge.cia301.vendors)."""
         return next((e.vendor_name for e in self._shipped_identities()
-                     if e.vendor_id == vendor_id != 0 and e.vendor_name), None)
+                     if e.vendor_id == vendor_id != 0 and e.vendor_name), None) or cia301_vendor_name(vendor_id)
 
     # -- boot --------------------------------------------------------------------------------
     def is_bootup_emcy(self, data: bytes) -> bool:
