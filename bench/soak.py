@@ -281,7 +281,7 @@ def run(seconds: float, seed: int = 1, log: Callable[[str], None] = print) -> So
     master.add_event_listener(soak.events.append)
     master.add_emcy_listener(lambda e: soak.emcys.append((e.node_id, e.code)))
     master.add_cycle_listener(executor.check)
-    master.add_emcy_listener(executor.on_emcy)
+    master.add_emcy_listener(executor.on_emcy, safety=True)
     tallies = {name: Tally() for name in CATALOGUE}
     process = psutil.Process()
     try:

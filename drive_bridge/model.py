@@ -156,7 +156,9 @@ class ModeChoice:
     """The axis' default mode is picked at boot from the drive's 0x6502 (the config names none):
     the first of ``candidates`` the drive supports."""
 
-    candidates: tuple[int, ...] = ()  # modes the bridge can stream with this axis' PDO map, best first
+    # modes the bridge can stream with this axis' PDO map, best first; None: the map was not
+    # derived (explicit PDOs), every streaming mode is a candidate; () streams none
+    candidates: tuple[int, ...] | None = None
     inferred_support: int | None = None  # 0x6502 bits from the EDS's objects when 0x6502 is absent
 
 

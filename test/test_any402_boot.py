@@ -101,3 +101,12 @@ def test_the_start_up_line_says_what_is_mapped_polled_and_why() -> None:
         'polled: 6064 (not PDO-mappable), 6061 (not PDO-mappable); estimated from position: 606C (not PDO-mappable)')
     assert node.polled == ((0x6064, 0), (0x6061, 0)) and node.axes[0].estimated_velocity
     assert node.guard_time_ms == 100 and node.heartbeat_producer_ms == 0  # no 0x1017: guarded
+
+
+def test_a_map_that_streams_nothing_picks_no_mode_and_an_underived_map_picks_the_best() -> None:
+    from drive_bridge.cia402.bootmodes import pick
+    from drive_bridge.model import ModeChoice
+    every = 0x3FF  # 0x6502: pp, vl, pv, hm, ip, csp, csv, cst supported
+    refused = pick(8, ModeChoice(candidates=()), every, False)
+    assert refused.mode == 0 and 'its PDO map streams no mode' in refused.problem
+    assert pick(8, ModeChoice(), every, False).mode == 8  # explicit PDOs: the best streaming mode

@@ -10,8 +10,9 @@ import can
 import pytest
 
 from bustools import config_from, demo_data, running
+from drive_bridge.cia301.busbits import frame_bits
 from drive_bridge.config import ConfigError
-from drive_bridge.config.busbudget import budget_of, frame_bits
+from drive_bridge.config.busbudget import budget_of
 
 
 def demo_at(sync_us: int, **bus: object) -> dict:
@@ -22,7 +23,9 @@ def demo_at(sync_us: int, **bus: object) -> dict:
 
 
 def test_frame_bits_with_worst_case_stuffing() -> None:
-    assert frame_bits(8) == 135 and frame_bits(0) == 55 and frame_bits(6) == 115
+    assert frame_bits(8, stuffed=True) == 135 and frame_bits(0, stuffed=True) == 55
+    assert frame_bits(6, stuffed=True) == 115 and frame_bits(8) == 111
+    assert frame_bits(8, remote=True) == 47 and frame_bits(8, extended=True) == 131
 
 
 def test_the_demo_fits_at_4_ms_and_the_check_stays_quiet() -> None:
@@ -83,3 +86,15 @@ def test_the_counted_frames_are_what_the_bus_carries() -> None:
     # worst case counted: every RPDO every cycle and every synchronous TPDO; the cycle thread
     # may skip a few SYNCs on a busy machine
     assert 0.6 * expected < frames <= 1.1 * expected, (frames, expected)
+
+
+def test_an_axis_whose_mode_is_picked_at_boot_counts_its_ip_rpdo() -> None:
+    from test_any402 import SCALE
+
+    from configtools import REAL_EDS
+    config = config_from({'bus': {'interface': 'virtual', 'channel': 'budget_ip', 'bitrate': 1_000_000},
+                          'master': {'sync_period': 4000},
+                          'nodes': {'j': {'dcf': str(REAL_EDS / 'PRL120.eds'), 'node_id': 2, **SCALE}}})
+    axis = config.nodes[0].axes[0]
+    assert axis.auto_mode is not None and axis.auto_mode.candidates == (7,)  # ip picked at boot
+    assert '(1 SYNC, 2 RPDO, 2 TPDO' in budget_of(config).describe()  # 6040, and 60C1:1 for ip

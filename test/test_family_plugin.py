@@ -166,3 +166,11 @@ def test_a_silent_node_is_lost_and_configured_again_when_it_answers(plugin: None
         eventually(lambda: axis.drive_state.label == 'ready', 1.0, 'disabled after the node came back')
         time.sleep(0.3)
         assert axis.drive_state.label == 'ready'
+
+
+def test_a_family_names_a_vendor_from_the_cia_register_when_its_eds_files_do_not() -> None:
+    from drive_bridge.cia301.vendors import VENDOR_NAMES
+    from drive_bridge.families import get_family
+    generic = get_family('generic_301')  # ships no EDS of any maker
+    assert generic.vendor_name(0x9A) == VENDOR_NAMES[0x9A]
+    assert generic.vendor_name(0x12345) is None

@@ -43,6 +43,8 @@ def test_a_flood_of_unknown_frames_and_emcys_is_bounded_and_reported() -> None:
         events = Events(master)
         emcys = []
         master.add_emcy_listener(emcys.append)
+        reactions = []  # a safety reaction (the executor's stream abort) sees every EMCY
+        master.add_emcy_listener(reactions.append, safety=True)
         stream_ramp(master, 'shoulder_joint', 0.02)
         frames = [can.Message(arbitration_id=0x7F0, data=b'\x01' * 8, is_extended_id=False),
                   can.Message(arbitration_id=0x082, data=b'\x00\x10\x01\x00\x00\x00\x00\x00',
@@ -63,6 +65,7 @@ def test_a_flood_of_unknown_frames_and_emcys_is_bounded_and_reported() -> None:
         assert len(emcys) <= EMCY_BURST + EMCY_RATE * took + 5, len(emcys)
         assert node.emcy_suppressed == sent // 2 - len(emcys)
         assert node.emcy[-1].code == 0x1000
+        eventually(lambda: len(reactions) == sent // 2, 3.0, 'every EMCY at the safety listener')
         floods = [e for e in events.all if 'EMCY flood' in e.message]
         assert len(floods) == 1 and floods[0].message.startswith('node 2 (base_drive): EMCY flood, more than 20/s')
         # the cycle kept its timing and the rest of the bus was served

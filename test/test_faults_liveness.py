@@ -144,3 +144,92 @@ def test_freshness_counts_syncs_so_a_stalled_master_blames_no_drive() -> None:
     counts[0x184] += 1
     counts[0x284] += 1
     assert freshness.poll(10.4, 201) == []
+
+
+def test_a_node_stopped_by_nmt_is_not_stale_and_a_stale_node_reset_to_pre_operational_is_configured_again() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        events = Events(master)
+        lift = master.axes['lift_joint']
+        master.nmt(0x02, 4)  # NMT stop: no TPDO by right, the heartbeat goes on
+        eventually(lambda: master.nodes['lift_drive'].nmt_state.value != 'operational', 2.0, 'stopped')
+        time.sleep(FRESHNESS_MIN + 0.4)
+        master.nmt(0x01, 4)
+        eventually(lambda: lift.snapshot().available, 2.0, 'lift available after NMT start')
+        time.sleep(FRESHNESS_MIN + 0.2)
+        assert not events.of(EventKind.PDO_STALE) and not events.of(EventKind.PDO_FRESH)
+
+        sim.drive(4).stop_tpdos()
+        events.wait(EventKind.PDO_STALE, 3.0)
+        booted = len(events.of(EventKind.BOOTED))
+        master.nmt(0x80, 4)  # to pre-operational: the stale node must be configured again
+        eventually(lambda: sim.drive(4).nmt_state == 'PRE-OPERATIONAL', 2.0, 'drive pre-operational')
+        sim.drive(4).stop_tpdos(False)
+        eventually(lambda: len(events.of(EventKind.BOOTED)) > booted, 5.0, 'lift_drive configured again')
+        eventually(lambda: lift.snapshot().available, 2.0, 'lift available again')
+        assert not events.of(EventKind.PDO_FRESH)
+
+
+def test_a_dead_node_is_explained_by_its_heartbeat_not_by_its_tpdos() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        events = Events(master)
+        sim.drive(4).mute()
+        events.wait(EventKind.HEARTBEAT_LOST, 3.0)
+        time.sleep(0.3)
+        assert not events.of(EventKind.PDO_STALE)
+
+
+def test_a_dead_guarded_node_is_guarding_lost_and_configured_again_when_it_answers() -> None:
+    data = demo_data()
+    data['nodes']['lift_drive'].update(guard_time_ms=100, life_time_factor=3, heartbeat_producer=0)
+    data['simulation'] = {'enabled': True, 'nodes': {'lift_drive': {'heartbeat': False}}}
+    with running(config_from(data)) as (master, sim):
+        events = Events(master)
+        booted = len(events.of(EventKind.BOOTED))
+        sim.drive(4).mute()
+        events.wait(EventKind.GUARDING_LOST, 3.0)  # also when its TPDOs were found stale first
+        sim.drive(4).mute(False)
+        events.wait(EventKind.GUARDING_BACK, 3.0)
+        eventually(lambda: len(events.of(EventKind.BOOTED)) > booted, 5.0, 'lift_drive configured again')
+
+
+def test_a_stale_node_is_never_re_enabled_by_the_bridge() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        events = Events(master)
+        lift = master.axes['lift_joint']
+        lift.enable(timeout=2.0)
+        sim.drive(4).stop_tpdos()
+        events.wait(EventKind.PDO_STALE, 3.0)
+        # its real state is unknown: a controlword that cannot raise one (quick stop, bit 2 low)
+        eventually(lambda: sim.drive(4).axis(0).controlword & 0x0F == 0x02, 1.0, 'quick stop sent')
+        eventually(lambda: sim.drive(4).axis(0).statusword & 0x6F != 0x27, 2.0, 'drive left operation enabled')
+        sim.drive(4).stop_tpdos(False)
+        events.wait(EventKind.PDO_FRESH, 3.0)
+        eventually(lambda: lift.snapshot().available, 2.0, 'lift available')
+        time.sleep(0.3)
+        assert lift.snapshot().state is not State.OPERATION_ENABLED  # the enable intent was dropped
+        lift.halt(False)
+        lift.enable(timeout=2.0)  # an explicit enable moves it again
+
+
+def test_an_error_in_one_supervision_step_is_reported_and_supervision_goes_on() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        events = Events(master)
+        lift = master.axes['lift_joint']
+        reset = lift.on_node_reset
+        calls = []
+
+        def failing_once() -> None:  # a family driver's hook that raises
+            calls.append(1)
+            if len(calls) == 1:
+                raise RuntimeError('broken hook')
+            reset()
+        lift.on_node_reset = failing_once
+        sim.drive(4).stop_tpdos()
+        events.wait(EventKind.PDO_STALE, 3.0)
+        booted = len(events.of(EventKind.BOOTED))
+        master.nmt(0x80, 4)  # the stale node leaves OPERATIONAL: its axes are reset (and the hook raises)
+        eventually(lambda: sim.drive(4).nmt_state == 'PRE-OPERATIONAL', 2.0, 'drive pre-operational')
+        sim.drive(4).stop_tpdos(False)
+        error = events.wait(EventKind.ERROR, 3.0)
+        assert error.message.startswith("node 4 (lift_drive): supervision step failed: RuntimeError('broken hook')")
+        eventually(lambda: len(events.of(EventKind.BOOTED)) > booted, 5.0, 'lift_drive configured again')

@@ -19,7 +19,7 @@ from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from drive_bridge.master.events import EventKind
-from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, trajectory_counts
+from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, MalformedMessage, check_trajectory_bytes, trajectory_counts
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
 from faulttools import demo_bridge
@@ -64,6 +64,27 @@ def test_the_counts_are_read_from_the_serialized_header(joints, points) -> None:
     msg = trajectory(points, joints)
     msg.header.frame_id = 'odd_length'
     assert trajectory_counts(serialize_message(msg)) == (len(joints), points)
+
+
+def test_full_points_pass_the_byte_bound_xcdr2_is_read_and_a_parameter_list_refused() -> None:
+    full = JointTrajectoryPoint(positions=[1.0] * 4, velocities=[1.0] * 4, accelerations=[1.0] * 4,
+                                effort=[1.0] * 4, time_from_start=Duration(sec=1))
+    raw = serialize_message(JointTrajectory(joint_names=JOINTS, points=[full] * 50))
+    check_trajectory_bytes(raw)
+    assert trajectory_counts(b'\x00\x07' + raw[2:]) == (4, 50)  # XCDR2, little-endian
+    with pytest.raises(MalformedMessage, match='0x0003 [(]parameter list, PL_CDR[)] is not supported'):
+        trajectory_counts(b'\x00\x03' + raw[2:])
+
+
+def test_a_point_with_long_arrays_is_refused_by_its_byte_size(ros: RosHarness, bridge: BusNode) -> None:
+    errors = Arrivals(ros, String, f'{NS}/command_errors')
+    publisher = ros.node('long_traj').create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
+    wait_for(lambda: publisher.get_subscription_count(), 5, 'the bridge subscribed')
+    point = JointTrajectoryPoint(positions=[0.0] * 100_000, time_from_start=Duration(sec=1))
+    publisher.publish(serialize_message(JointTrajectory(joint_names=['lift_joint'], points=[point])))
+    wait_for(lambda: errors.messages, 5, 'the refusal')
+    assert errors.messages[0].data.startswith('~/joint_trajectory: refused: 800')
+    assert 'bytes 1 joint name(s) and 1 point(s) can take' in errors.messages[0].data
 
 
 def test_a_200000_point_trajectory_is_refused_and_the_cycle_does_not_notice(ros: RosHarness,

@@ -75,3 +75,24 @@ def test_a_drive_power_cycled_mid_motion_is_configured_again_and_only_its_joint_
         assert lift.state is not State.OPERATION_ENABLED and 'enable the axis to move it' in lift.message
         assert not moving(master, 'lift_joint', 0.2)
         eventually(lambda: drive.axis(0).state is not State.OPERATION_ENABLED, 1.0, 'the drive disabled')
+
+
+def test_a_permanent_refusal_is_found_without_retries_and_a_new_boot_up_is_booted_again() -> None:
+    config = quick_retry_config()  # boot_retries 0: one attempt per round
+    sim = SimulatedBus(config)
+    drive = sim.drive(4)
+    drive.abort_sdo_on(0x1017, 0, 0x06090030)  # value range exceeded: retrying cannot help
+    sim.start()
+    master = Master(config)
+    events = Events(master)
+    try:
+        master.start()
+        eventually(lambda: any('permanent' in e.message for e in events.of(EventKind.BOOT_FAILED)), 8.0,
+                   'the refusal found permanent across rounds')
+        drive.abort_sdo_on(0x1017, 0, None)  # the drive is replaced: it boots up again
+        drive.power_off()
+        drive.power_on()
+        master.wait_until_operational(8.0)
+    finally:
+        master.stop()
+        sim.stop()

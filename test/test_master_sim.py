@@ -274,3 +274,19 @@ def test_malformed_frames_are_counted_or_decoded_and_the_master_keeps_running() 
         assert master.sync.cycles > cycles + 10
         assert axis.snapshot().state is not State.UNKNOWN and master.nodes['base_drive'].available
         assert master.sdo_read(2, 0x1018, 2)[1] == 0x402
+
+
+def test_a_polled_input_the_drive_refuses_is_reported_once_and_counted() -> None:
+    with running(config_from(demo_data())) as (master, sim):
+        node = master.nodes['base_drive']
+        sim.drive(2).abort_sdo_on(0x60F4, 0, 0x06020000)  # object does not exist
+        node.read(0x60F4)  # not in a TPDO: polled by SDO from now on
+        eventually(lambda: node.worker.failures > 20, 5.0, 'the poll failing repeatedly')
+        reported = [e for e in master.events if '60F4' in e.message.upper()]
+        assert len(reported) == 1, [e.message for e in reported]
+        sim.drive(2).abort_sdo_on(0x60F4, 0, None)
+        eventually(lambda: node.read(0x60F4) is not None, 2.0, 'the poll succeeding')
+        failures = node.worker.failures
+        sim.drive(2).abort_sdo_on(0x60F4, 0, 0x06020000)  # failing again: reported again
+        eventually(lambda: node.worker.failures > failures, 2.0, 'failing again')
+        eventually(lambda: len([e for e in master.events if '60F4' in e.message.upper()]) == 2, 2.0, 'reported again')

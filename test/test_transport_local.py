@@ -6,6 +6,7 @@ import socket
 import subprocess
 import sys
 import textwrap
+import time
 import uuid
 from pathlib import Path
 
@@ -104,3 +105,23 @@ def test_bad_channel_and_frames_are_refused_with_the_reason(channel: str) -> Non
         bus.shutdown()
     with pytest.raises(can.CanError, match='shut down'):
         bus.send(frame(0x80))
+
+
+def test_a_peer_that_does_not_read_costs_the_sender_one_timeout_not_one_per_frame(channel: str) -> None:
+    sender, stalled, reader = LocalBus(channel), LocalBus(channel), LocalBus(channel)
+    try:
+        started = time.monotonic()
+        for i in range(3000):  # far more than a datagram queue holds: the stalled peer's fills
+            sender.send(frame(0x100 + i % 16))
+        took = time.monotonic() - started
+        assert sender.dropped > 0 and took < 1.0, (sender.dropped, took)  # 50 ms for each dropped before
+        while stalled.recv(0) is not None:  # it reads again: it gets frames again
+            pass
+        sender.send(frame(0x7FF))
+        sender.send(frame(0x7FE))
+        got = [m.arbitration_id for m in iter(lambda: stalled.recv(0.5), None)]
+        assert got[-2:] == [0x7FF, 0x7FE]
+        assert reader.recv(1.0) is not None
+    finally:
+        for bus in (sender, stalled, reader):
+            bus.shutdown()

@@ -82,6 +82,7 @@ class Axis(ModeControl):
         self.fault_model: FaultModel = profile.fault_model if profile is not None else FaultModel()
         self._cond = threading.Condition()
         self._target_state: State | None = None
+        self._stale_hold = False  # the node's inputs are stale (its intents were dropped)
         self._halt = False
         self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
         self._disable_on_return = False  # after the node was configured again (on_node_reset)
@@ -181,7 +182,11 @@ class Axis(ModeControl):
             return
         statusword = int(statusword)
         state = self._state_of(statusword)
+        if not self.node.available:  # sent to while its TPDOs are stale: the statusword is frozen
+            self._hold_stale()
+            return
         with self._cond:
+            self._stale_hold = False
             self._notice_drop_out(state)
             command = self._device_command(state)
             mode_bits = self._mode_bits(state, statusword)
@@ -198,6 +203,23 @@ class Axis(ModeControl):
                 self._feeder.on_cycle(now, self)
             elif self._ip_point is not None:  # every cycle, even unchanged: one write is one point
                 self.node.write(*self.key['ip_position'], self._ip_point)
+
+    def _hold_stale(self) -> None:
+        """Inputs stale: the drive's real state is unknown, so only a controlword that cannot
+        raise any state goes out (quick stop, HALT); the enable intent is dropped, so the
+        axis moves again only after an explicit enable."""
+        with self._cond:
+            if not self._stale_hold:
+                self._stale_hold = True
+                self._target_state = None
+                self._targets.clear()
+                self._source = None
+                self._feeder = None
+                self._ip_point = None
+                self._message = 'inputs stale: held by quick stop; enable it again to move'
+                self._cond.notify_all()
+            self._controlword = sm.CMD_QUICK_STOP | sm.CW_HALT
+        self._write('controlword', self._controlword)
 
     def _notice_drop_out(self, state: State) -> None:
         """A drive that leaves operation enabled by itself (a fault, its enable input, a

@@ -38,10 +38,11 @@ def pick(configured: int, auto: ModeChoice | None, supported: int | None, inferr
             return BootMode(configured, '', f'mode {mode_name(configured)} as configured ({source})')
         return BootMode(configured, f'the configured mode {mode_name(configured)} is not supported by the drive '
                                     f'({source}); set another mode (axis key `mode`)', '')
-    for mode in auto.candidates or STREAMING_ORDER:  # no candidates: the map was not derived (explicit PDOs)
+    candidates = STREAMING_ORDER if auto.candidates is None else auto.candidates  # None: the map was not derived
+    for mode in candidates:
         if has_mode(supported, mode):
             how = ' through the bridge\'s position loop' if mode == Mode.PROFILE_VELOCITY else ''
             return BootMode(mode, '', f'mode {mode_name(mode)}{how}, the best streaming mode of the drive ({source})')
-    streams = ', '.join(mode_name(m) for m in auto.candidates or STREAMING_ORDER)
+    streams = ', '.join(mode_name(m) for m in candidates) or 'no mode'
     return BootMode(int(Mode.NO_MODE), f'no mode the bridge can stream: the drive has {source}, its PDO map '
                                        f'streams {streams}', '')

@@ -12,18 +12,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from drive_bridge.cia301.busbits import frame_bits
+from drive_bridge.cia402.bootmodes import has_mode
 from drive_bridge.families import get_family
-from drive_bridge.model import BusConfig, MasterConfig, NodeConfig, PdoConfig
+from drive_bridge.model import BusConfig, MasterConfig, ModeChoice, NodeConfig, PdoConfig
 
 WARN_LOAD = 0.70
 INTERPOLATED_POSITION = 7
 UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # the master's cycle without SYNC (drive_bridge.master.master)
-
-
-def frame_bits(data_bytes: int) -> int:
-    """Bits of a classic frame with an 11-bit id and ``data_bytes`` bytes, worst-case stuffing
-    and the 3-bit intermission (8 bytes: 135, SYNC: 55)."""
-    return 47 + 8 * data_bytes + (33 + 8 * data_bytes) // 4
 
 
 @dataclass(frozen=True)
@@ -79,11 +75,23 @@ def _tpdo_per_cycle(pdo: PdoConfig, period: float) -> float:
 
 
 def _idle(node: NodeConfig, pdo: PdoConfig) -> bool:
-    """An RPDO sent only when written (the interpolation data of ip), on a node with no axis in ip."""
+    """An RPDO sent only when written (the interpolation data of ip), on a node with no axis
+    that can run ip (configured, or among the modes picked at boot)."""
     family = get_family(node.family)
     if not any(family.sent_on_write(e.index, e.subindex) for e in pdo.mapping):
         return False
-    return not any(INTERPOLATED_POSITION in (a.mode, a.position_mode) for a in node.axes)
+    return not any(INTERPOLATED_POSITION in (a.mode, a.position_mode) or _may_pick_ip(a.auto_mode)
+                   for a in node.axes)
+
+
+def _may_pick_ip(auto: ModeChoice | None) -> bool:
+    """The boot will pick ip: the first of a derived map's candidates the drive supports (as
+    far as the EDS tells; 0x6502 is read at boot). Explicit PDOs (candidates None) are counted
+    for the modes the user named."""
+    if auto is None or not auto.candidates:
+        return False
+    first = next((m for m in auto.candidates if has_mode(auto.inferred_support, m)), None)
+    return first == INTERPOLATED_POSITION
 
 
 def _background(master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> tuple[float, float]:
@@ -91,15 +99,15 @@ def _background(master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> tuple[fl
     frames = bits = 0.0
     if master.heartbeat_producer_ms:
         frames += 1000.0 / master.heartbeat_producer_ms
-        bits += frame_bits(1) * 1000.0 / master.heartbeat_producer_ms
+        bits += frame_bits(1, stuffed=True) * 1000.0 / master.heartbeat_producer_ms
     for node in nodes:
         if node.guarding:  # remote request of the master, then the node's 1-byte answer
             rate = 1000.0 / node.guard_time_ms
             frames += 2 * rate
-            bits += (frame_bits(0) + frame_bits(1)) * rate
+            bits += (frame_bits(0, remote=True, stuffed=True) + frame_bits(1, stuffed=True)) * rate
         elif node.heartbeat_producer_ms:
             frames += 1000.0 / node.heartbeat_producer_ms
-            bits += frame_bits(1) * 1000.0 / node.heartbeat_producer_ms
+            bits += frame_bits(1, stuffed=True) * 1000.0 / node.heartbeat_producer_ms
     return frames, bits
 
 
@@ -107,18 +115,18 @@ def bus_budget(bus_bitrate: int | None, master: MasterConfig, nodes: tuple[NodeC
     """The budget of one bus (see the module docstring for what is counted)."""
     period = master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
     sync = 1.0 if master.sync_period else 0.0
-    bits = sync * frame_bits(0)
+    bits = sync * frame_bits(0, stuffed=True)
     rpdos = tpdos = 0.0
     for node in nodes:
         for pdo in node.rpdo:
             if pdo.enabled and not _idle(node, pdo):
                 rpdos += 1
-                bits += frame_bits((pdo.bits + 7) // 8)
+                bits += frame_bits((pdo.bits + 7) // 8, stuffed=True)
         for pdo in node.tpdo:
             if pdo.enabled:
                 n = _tpdo_per_cycle(pdo, period)
                 tpdos += n
-                bits += n * frame_bits((pdo.bits + 7) // 8)
+                bits += n * frame_bits((pdo.bits + 7) // 8, stuffed=True)
     background_frames, background_bits = _background(master, nodes)
     parts = (('SYNC', sync), ('RPDO', rpdos), ('TPDO', tpdos),
              ('heartbeat/guarding', background_frames * period))

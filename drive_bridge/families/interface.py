@@ -35,6 +35,7 @@ import canopen
 from canopen import ObjectDictionary
 
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
+from drive_bridge.cia301.vendors import vendor_name as cia301_vendor_name
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
@@ -84,6 +85,8 @@ class PdoPlan:
     axes: tuple[AxisConfig, ...]
     polled: tuple[tuple[int, int], ...] = ()
     summary: str = ''
+
+
 class IdentityMatch(IntEnum):
     """How surely a node found on a bus (0x1000, 0x1008, 0x1018) is one of a family's drives."""
 
@@ -157,9 +160,9 @@ class DriveFamily:
     pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of the family's PVT interpolation, if any
     default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
     interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
-    accepted_modes: ClassVar[frozenset[int] | None] = None
+    accepted_modes: ClassVar[frozenset[int] | None] = None  # the modes it takes, when 0x6502 says otherwise
     # an axis that names no mode gets the best streaming mode the drive's 0x6502 has (at boot)
-    modes_from_drive: ClassVar[bool] = False  # the modes it takes, when 0x6502 says otherwise
+    modes_from_drive: ClassVar[bool] = False
     # default of the axis keys mode / position_mode / velocity_mode / effort_mode, where they
     # differ from csp / csp / csv / cst
     default_modes: ClassVar[Mapping[str, str]] = {}
@@ -226,9 +229,10 @@ class DriveFamily:
                    default=IdentityMatch.NONE)
 
     def vendor_name(self, vendor_id: int) -> str | None:
-        """The vendor of ``vendor_id`` (0x1018:1) when this family knows it."""
+        """The vendor of ``vendor_id`` (0x1018:1): from the family's shipped EDS files, else
+        from the excerpt of CiA's register (drive_bridge.cia301.vendors)."""
         return next((e.vendor_name for e in self._shipped_identities()
-                     if e.vendor_id == vendor_id != 0 and e.vendor_name), None)
+                     if e.vendor_id == vendor_id != 0 and e.vendor_name), None) or cia301_vendor_name(vendor_id)
 
     # -- boot --------------------------------------------------------------------------------
     def is_bootup_emcy(self, data: bytes) -> bool:

@@ -169,7 +169,7 @@ def _write_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str)
     pdo_map.trans_type = config.transmission
     if kind == 'TPDO':
         pdo_map.inhibit_time = (config.inhibit_time or None) if 3 in subs else None
-        comm = (0x1800 if kind == 'TPDO' else 0x1400) + config.number - 1
+        comm = 0x1800 + config.number - 1
         pdo_map.event_timer = config.event_timer if 5 in subs and _has(node, comm, 5) else None
         pdo_map.sync_start_value = (config.sync_start or None) if 6 in subs else None
     for entry in config.mapping:

@@ -7,14 +7,12 @@ from dataclasses import dataclass
 
 import can
 
-FRAME_OVERHEAD_BITS = 47  # classic CAN data frame with 11-bit id, without stuffing, plus intermission
-EXTENDED_EXTRA_BITS = 20
+from drive_bridge.cia301.busbits import frame_bits as bits_of
 
 
 def frame_bits(msg: can.Message) -> int:
     """Nominal bits on the wire (no stuff bits): 47 + 8 per data byte (docs/python-ecosystem.md §5)."""
-    bits = FRAME_OVERHEAD_BITS + 8 * (0 if msg.is_remote_frame else len(msg.data))
-    return bits + (EXTENDED_EXTRA_BITS if msg.is_extended_id else 0)
+    return bits_of(len(msg.data), msg.is_extended_id, msg.is_remote_frame)
 
 
 @dataclass(frozen=True)

@@ -47,10 +47,11 @@ class CycleFeedback:
         for node, cobs in self._nodes:
             if node.available:
                 pending.update(cobs)
-        self._pending = pending
-        if pending:
+        if pending:  # cleared before the new set is visible: a TPDO completing it sets it again
             self._complete.clear()
+            self._pending = pending
         else:
+            self._pending = pending
             self._complete.set()
 
     def wait(self, timeout: float) -> bool:

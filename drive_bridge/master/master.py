@@ -44,6 +44,7 @@ NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
 SUPERVISOR_PERIOD = 0.02
 ADHOC_SDO_TIMEOUT = 0.3
 LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets
+SUPERVISION_ERROR_PERIOD = 10.0  # s between two reports of the same failing supervision step
 BUS_DOWN_AFTER = 0.1  # s a bus must keep failing to count as down (a single glitch is only counted)
 BUS_REOPEN_AFTER = 1.0  # s of a failing bus before the master reopens an interface it opened
 
@@ -82,6 +83,8 @@ class Master:
         self._parameters: dict[int, ParameterAccess] = {}
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
+        self._safety_emcy_listeners: list[Callable[[EmcyEvent], None]] = []
+        self._supervision_errors: dict[str, float] = {}  # subject -> monotonic time last reported
         self._cycle_listeners: list[Callable[[int], None]] = []
         self.feedback = CycleFeedback()
         self.sync: SyncProducer | None = None
@@ -104,8 +107,14 @@ class Master:
     def add_event_listener(self, listener: Callable[[BusEvent], None]) -> None:
         self._event_listeners = [*self._event_listeners, listener]
 
-    def add_emcy_listener(self, listener: Callable[[EmcyEvent], None]) -> None:
-        self._emcy_listeners = [*self._emcy_listeners, listener]
+    def add_emcy_listener(self, listener: Callable[[EmcyEvent], None], safety: bool = False) -> None:
+        """Reporting listeners get the EMCYs within the per-node rate limit (a babbling node is
+        counted, not reported); ``safety`` listeners (reactions such as aborting a stream on a
+        buffer underflow) get every EMCY, also in a flood (Notifier thread, keep it short)."""
+        if safety:
+            self._safety_emcy_listeners = [*self._safety_emcy_listeners, listener]
+        else:
+            self._emcy_listeners = [*self._emcy_listeners, listener]
 
     def add_cycle_listener(self, listener: Callable[[int], None]) -> None:
         """Called after each cycle's SYNC and set-points (cycle thread, keep it short)."""
@@ -127,8 +136,10 @@ class Master:
             except Exception as exc:  # a broken listener must not stop supervision
                 log.error('event listener failed: %r', exc)
 
-    def _on_emcy(self, event: EmcyEvent) -> None:
-        for listener in self._emcy_listeners:
+    def _on_emcy(self, event: EmcyEvent, reported: bool) -> None:
+        """Every EMCY of a node (Notifier thread); ``reported``: within its rate limit."""
+        listeners = [*self._safety_emcy_listeners, *self._emcy_listeners] if reported else self._safety_emcy_listeners
+        for listener in listeners:
             try:
                 listener(event)
             except Exception as exc:
@@ -244,17 +255,34 @@ class Master:
             node.add_state_listener(functools.partial(self._on_node_state, node))
         while not self._stop.wait(SUPERVISOR_PERIOD):
             now = time.monotonic()
-            if self._check_bus(now):
-                continue  # nothing on a dead bus can be judged
-            unknown = self.unknown_frames.report(now)
-            if unknown:
-                self._emit(EventKind.UNKNOWN_FRAMES, Level.WARN, f'bus {self.config.bus.channel}: {unknown}')
+            try:
+                if self._check_bus(now):
+                    continue  # nothing on a dead bus can be judged
+                unknown = self.unknown_frames.report(now)
+                if unknown:
+                    self._emit(EventKind.UNKNOWN_FRAMES, Level.WARN, f'bus {self.config.bus.channel}: {unknown}')
+            except Exception as exc:  # supervision goes on: the next round tries again
+                self._supervision_failed(f'bus {self.config.bus.channel}', exc, now)
+                continue
             for node in self.nodes.values():
-                self._check_heartbeat(node, now)
-                self._check_guarding(node, now)
-                self._check_freshness(node, now)
-                if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
-                    self._start_boot(node)
+                try:
+                    self._check_heartbeat(node, now)
+                    self._check_guarding(node, now)
+                    self._check_freshness(node, now)
+                    if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
+                        self._start_boot(node)
+                except Exception as exc:  # the other nodes are still supervised
+                    self._supervision_failed(f'node {node.node_id} ({node.name})', exc, now, node)
+
+    def _supervision_failed(self, what: str, exc: Exception, now: float, node: NodeRuntime | None = None) -> None:
+        """An unexpected error in one supervision step: logged every time, an ERROR event at
+        most every SUPERVISION_ERROR_PERIOD per subject (a step failing each round floods nothing)."""
+        log.exception('supervising %s failed', what)
+        if now - self._supervision_errors.get(what, -math.inf) >= SUPERVISION_ERROR_PERIOD:
+            self._supervision_errors[what] = now
+            self._emit(EventKind.ERROR, Level.ERROR,
+                       f'{what}: supervision step failed: {exc!r} (retried every {SUPERVISOR_PERIOD * 1000:.0f} ms; '
+                       f'reported at most every {SUPERVISION_ERROR_PERIOD:g} s)', node)
 
     def _check_bus(self, now: float) -> bool:
         """Bus-off or a failing interface: report once, every node unavailable (streams abort,
@@ -307,9 +335,23 @@ class Master:
         return self.sync.cycles if self.sync is not None else self._cycle_count
 
     def _check_freshness(self, node: NodeRuntime, now: float) -> None:
-        """A node alive by heartbeat whose cyclic TPDO stopped: its axes are held (HALT, so the
-        cycle still tells the drive to stay put) and it is unavailable until the TPDO is back."""
-        stale = node.freshness.poll(now, self._sync_count())
+        """A node alive by heartbeat (or guarding) whose cyclic TPDO stopped: its axes are held
+        (HALT, so the cycle still tells the drive to stay put) and it is unavailable until the
+        TPDO is back. A node not started sends no TPDO by right (the clocks restart; a stale one
+        that left OPERATIONAL is configured again), and a silent one is for liveness to judge."""
+        syncs = self._sync_count()
+        if node.boot_state not in (BootState.OPERATIONAL, BootState.STALE):
+            return
+        if node.nmt_state is not NmtState.OPERATIONAL:
+            node.freshness.arm(now, syncs)
+            if node.boot_state is BootState.STALE:  # alive but not started: configure again
+                self._reset_axes(node)
+                node.set_boot_state(BootState.WAITING)
+                node.next_boot_time = 0.0
+            return
+        if not self._answers(node, now):
+            return
+        stale = node.freshness.poll(now, syncs)
         if stale and node.boot_state is BootState.OPERATIONAL:
             joints = [a.joint for a in node.config.axes]
             for joint in joints:
@@ -319,17 +361,35 @@ class Master:
                     log.warning('holding %s: %s', joint, exc)
             reason = '; '.join(str(s) for s in stale)
             node.set_boot_state(BootState.STALE, reason)
+            alive = 'it answers node guarding' if node.guard is not None else 'its heartbeat continues'
             self._emit(EventKind.PDO_STALE, Level.ERROR,
-                       f'node {node.node_id} ({node.name}): {reason} while its heartbeat continues; '
+                       f'node {node.node_id} ({node.name}): {reason} while {alive}; '
                        f'joint(s) {", ".join(joints)} held (HALT), streams aborted', node)
-        elif not stale and node.boot_state is BootState.STALE and node.nmt_state is NmtState.OPERATIONAL:
+        elif not stale and node.boot_state is BootState.STALE:
             node.set_boot_state(BootState.OPERATIONAL)
             self._emit(EventKind.PDO_FRESH, Level.WARN,
                        f'node {node.node_id} ({node.name}): TPDOs fresh again; its axes stay held '
                        '(HALT) until resumed', node)
 
+    @staticmethod
+    def _answers(node: NodeRuntime, now: float) -> bool:
+        """Its last heartbeat or guarding reply is at most two of its periods old: a node that
+        fell silent is judged by liveness (heartbeat or guarding lost), not by its TPDOs."""
+        cfg = node.config
+        period = (cfg.guard_time_ms if node.guard is not None else cfg.heartbeat_producer_ms) / 1000.0
+        if period <= 0 or node.last_heartbeat is None:
+            return True
+        return now - node.last_heartbeat <= 2 * period
+
     def _on_node_state(self, node: NodeRuntime) -> None:
-        """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots."""
+        """A heartbeat or boot-up arrived (Notifier thread): notice unexpected reboots; a node
+        whose boot failed (also permanently) and sends a boot-up (reset, a replaced drive) is
+        booted again at once."""
+        if node.bootup_seen.is_set() and node.boot_state is BootState.FAILED:
+            node.bootup_seen.clear()
+            node.boot_refusal = None
+            node.next_boot_time = 0.0
+            return
         if node.bootup_seen.is_set() and node.boot_state in (BootState.OPERATIONAL, BootState.LOST,
                                                              BootState.STALE):
             node.bootup_seen.clear()
@@ -366,13 +426,13 @@ class Master:
         if guard is None or not node.guard_active:
             return
         for event in guard.poll(now):
-            if event.kind is GuardEventKind.LOST and node.boot_state is BootState.OPERATIONAL:
+            if event.kind is GuardEventKind.LOST and node.boot_state in (BootState.OPERATIONAL, BootState.STALE):
                 node.set_boot_state(BootState.LOST, f'node guarding lost: {event.message}')
                 self._emit(EventKind.GUARDING_LOST, Level.ERROR,
                            f'{event.message} ({node.name}); its axes are unavailable', node)
             elif event.kind is GuardEventKind.TOGGLE_ERROR:
                 self._emit(EventKind.GUARDING_ERROR, Level.WARN, f'{event.message} ({node.name})', node)
-            elif event.kind is GuardEventKind.BACK and node.boot_state is BootState.LOST:
+            elif event.kind is GuardEventKind.BACK and node.boot_state in (BootState.LOST, BootState.STALE):
                 self._emit(EventKind.GUARDING_BACK, Level.WARN,
                            f'{event.message} ({node.name}): answers again; configuring it again '
                            '(its axes stay disabled until enabled)', node)
@@ -411,7 +471,6 @@ class Master:
     def _boot(self, node: NodeRuntime) -> None:
         attempts = 1 + max(0, node.config.timeouts.boot_retries)
         error = ''
-        previous: BootError | None = None
         for _ in range(attempts):
             if self._stop.is_set():
                 return
@@ -421,19 +480,22 @@ class Master:
             except BootError as exc:
                 error = str(exc)
                 log.info('boot attempt %d failed: %s', node.boot_attempts, error)
+                # the previous refusal is kept across rounds: also with boot_retries 0
+                previous, node.boot_refusal = node.boot_refusal, exc
                 if repeats_identically(exc, previous):
+                    node.bootup_seen.clear()  # the boot's own boot-up; a later one is a new drive
                     node.next_boot_time = math.inf
                     node.set_boot_state(BootState.FAILED, error)
                     self._emit(EventKind.BOOT_FAILED, Level.ERROR,
                                f'{error} (the same refusal on {node.boot_attempts} attempts: permanent, not '
                                'retried; change the configuration)', node)
                     return
-                previous = exc
                 continue
             except Exception as exc:  # never let a boot thread die silently
                 error = f'node {node.node_id} ({node.name}) boot failed unexpectedly: {exc!r}'
                 continue
             node.bootup_seen.clear()  # the boot's own boot-up; a later one is a real reboot
+            node.boot_refusal = None
             self._settle_axes(node)
             node.set_boot_state(BootState.OPERATIONAL)
             self._emit(EventKind.BOOTED, Level.INFO,
@@ -441,6 +503,7 @@ class Master:
                        f'(attempt {node.boot_attempts})', node)
             return
         interval = node.config.timeouts.boot_retry_interval
+        node.bootup_seen.clear()
         node.next_boot_time = time.monotonic() + interval
         node.set_boot_state(BootState.FAILED, error)
         self._emit(EventKind.BOOT_FAILED, Level.ERROR,

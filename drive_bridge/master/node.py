@@ -9,6 +9,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import canopen
 
@@ -22,6 +23,9 @@ from drive_bridge.master.pdo import ObjectKey, ProcessImage, od_variable
 from drive_bridge.master.sdo import SdoChannel
 from drive_bridge.master.sdo_worker import SdoWorker
 from drive_bridge.model import MasterConfig, NodeConfig
+
+if TYPE_CHECKING:
+    from drive_bridge.master.boot import BootError
 
 EMCY_HISTORY = 32
 
@@ -64,18 +68,13 @@ class NodeRuntime:
     """Everything the master tracks about one node; thread-safe snapshot()."""
 
     def __init__(self, network: canopen.Network, config: NodeConfig, master: MasterConfig,
-                 on_emcy: Callable[[EmcyEvent], None], on_error: Callable[[str], None]) -> None:
+                 on_emcy: Callable[[EmcyEvent, bool], None], on_error: Callable[[str], None]) -> None:
         self.config = config
         self.family = get_family(config.family)
         self.network = network
         self.remote = canopen.RemoteNode(config.node_id, config.od)
         network.add_node(self.remote)
-        # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
-        network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
-        network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
         self.liveness = self.family.liveness(config)
-        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
-            self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
         self.sdo = SdoChannel(self.remote, config.timeouts.sdo, config.timeouts.sdo_retries)
         self.process = ProcessImage(config.od, config.rpdo, config.tpdo, self.family.sent_on_write)
         for cob_id in self.process.rx_layouts:
@@ -95,6 +94,7 @@ class NodeRuntime:
         self.boot_attempts = 0
         self.boot_error = ''
         self.next_boot_time = 0.0
+        self.boot_refusal: BootError | None = None  # the last boot's refusal, kept across rounds
         self.nmt_state = NmtState.UNKNOWN
         self.last_heartbeat: float | None = None
         self.bootup_seen = threading.Event()
@@ -107,6 +107,12 @@ class NodeRuntime:
         self.emcy_limit = TokenBucket(EMCY_RATE, EMCY_BURST)
         self._state_listeners: list[Callable[[], None]] = []
         self.lock = threading.RLock()
+        # subscribed last: a frame may arrive at once (a heartbeat during Master.start)
+        # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
+        network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
+        network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
+        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
+            self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
 
     @property
     def name(self) -> str:
@@ -175,9 +181,9 @@ class NodeRuntime:
         event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
         self._emcy.append(event)
         limit = self.emcy_limit
-        if limit.allow(time.monotonic()):
-            self._on_emcy(event)
-        elif not limit.flooding:  # a babbling node: reported once per episode, then counted
+        reported = limit.allow(time.monotonic())
+        self._on_emcy(event, reported)  # safety listeners get every EMCY, reporting ones the allowed
+        if not reported and not limit.flooding:  # a babbling node: reported once per episode, then counted
             limit.flooding = True
             self._on_error(f'node {self.node_id} ({self.name}): EMCY flood, more than {EMCY_RATE:g}/s '
                            f'(latest 0x{event.code:04X} {event.text}); the excess is counted, not reported '

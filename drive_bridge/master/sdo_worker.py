@@ -30,6 +30,8 @@ class SdoWorker:
         self._wake = threading.Condition()
         self._thread: threading.Thread | None = None
         self._stop = False
+        self._failing: set[ObjectKey] = set()  # reported once, until it succeeds again
+        self.failures = 0  # failed SDO accesses of this worker, reported or not
         self.enabled = False  # only while the node is operational
 
     def write(self, key: ObjectKey, value: int | float) -> None:
@@ -58,9 +60,15 @@ class SdoWorker:
         if self._thread is not None:
             self._thread.join(timeout=2)
 
-    def _report(self, exc: SdoError) -> None:
+    def _report(self, key: ObjectKey, exc: SdoError) -> None:
+        """A failure is reported once per object until that object succeeds again (a polled
+        input the drive refuses fails at the poll rate); every failure is counted."""
+        self.failures += 1
+        if key in self._failing:
+            return
+        self._failing.add(key)
         if self._on_error is not None:
-            self._on_error(str(exc))
+            self._on_error(f'{exc} (reported once until it succeeds again)')
 
     def _run(self) -> None:
         next_poll = time.monotonic()
@@ -79,14 +87,17 @@ class SdoWorker:
                 try:
                     self.channel.write(index, subindex, value)
                 except SdoError as exc:
-                    self._report(exc)
+                    self._report((index, subindex), exc)
+                    continue
+                self._failing.discard((index, subindex))
             if polled:
                 next_poll = time.monotonic() + self.poll_period
                 for key in polled:
                     try:
                         _type, polled_value, _raw = self.channel.read(*key)
                     except SdoError as exc:
-                        self._report(exc)
+                        self._report(key, exc)
                         continue
+                    self._failing.discard(key)
                     if isinstance(polled_value, (int, float)):  # process data: numbers only
                         self._sink(key, polled_value, time.time())

@@ -84,7 +84,7 @@ class Bridge:
             self.master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
             pvt_segment=params.pvt_segment, pvt_lookahead=params.pvt_lookahead)
         self.master.add_cycle_listener(self.trajectories.check)
-        self.master.add_emcy_listener(self.trajectories.on_emcy)
+        self.master.add_emcy_listener(self.trajectories.on_emcy, safety=True)
         self.state_topics = StateTopics(node, self.master, params)
         self.command_topics = CommandTopics(node, self.master, self.trajectories, params)
         self.service_handlers = BridgeServices(node, self.master, self.trajectories)

@@ -23,8 +23,7 @@ from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.message_limits import (
     MalformedMessage,
     MessageTooLarge,
-    check_trajectory_size,
-    trajectory_counts,
+    check_trajectory_bytes,
 )
 from drive_bridge.ros.parameters import BridgeParameters
 from drive_bridge.streaming.executor import TrajectoryExecutor
@@ -80,11 +79,14 @@ class CommandTopics:
         if self._inactive(topic):
             return
         try:
-            check_trajectory_size(*trajectory_counts(raw))
+            check_trajectory_bytes(raw)
+            msg = deserialize_message(raw, JointTrajectory)
         except (MessageTooLarge, MalformedMessage) as exc:
             self.refuse(topic, str(exc))
             return
-        msg = deserialize_message(raw, JointTrajectory)
+        except Exception as exc:  # the middleware's own error for bytes it cannot read
+            self.refuse(topic, str(MalformedMessage(f'not a trajectory_msgs/JointTrajectory: {exc}')))
+            return
         try:
             handle = self.executor.submit(trajectory_from_msg(msg), topic)
         except TrajectoryError as exc:

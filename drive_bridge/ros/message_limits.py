@@ -15,8 +15,11 @@ from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
 
 MAX_JOINT_NAMES = 64  # far more than one bus has; a longer list is an error, not a command
 ENCAPSULATION = 4  # CDR header (representation id and options); alignment counts from its end
-_LITTLE = {b'\x00\x01', b'\x00\x03'}  # CDR_LE, PL_CDR_LE
-_BIG = {b'\x00\x00', b'\x00\x02'}
+_LITTLE = {b'\x00\x01', b'\x00\x07'}  # CDR_LE, CDR2_LE (XCDR2: a final type, plain members)
+_BIG = {b'\x00\x00', b'\x00\x06'}  # CDR_BE, CDR2_BE
+_PARAMETER_LIST = {b'\x00\x02', b'\x00\x03'}  # PL_CDR: members as parameters, another layout
+POINT_FIXED = 16  # per point: time_from_start (8) and alignment
+SEQUENCE_FIXED = 8  # per float64[] of a point: its length (4) and alignment to 8
 
 
 class MessageTooLarge(DriveBridgeError, ValueError):
@@ -30,6 +33,9 @@ class MalformedMessage(DriveBridgeError, ValueError):
 class _Reader:
     def __init__(self, raw: bytes) -> None:
         kind = bytes(raw[:2])
+        if kind in _PARAMETER_LIST:
+            raise MalformedMessage(f'CDR encapsulation 0x{kind.hex()} (parameter list, PL_CDR) is not supported; '
+                                   'send plain CDR or XCDR2')
         if kind not in _LITTLE | _BIG:
             raise MalformedMessage(f'unknown CDR encapsulation 0x{kind.hex()}')
         self.raw = raw
@@ -51,16 +57,34 @@ class _Reader:
 
 def trajectory_counts(raw: bytes) -> tuple[int, int]:
     """(joint names, points) of a serialized trajectory_msgs/JointTrajectory."""
+    joints, points, _ = _trajectory_header(raw)
+    return joints, points
+
+
+def check_trajectory_bytes(raw: bytes) -> None:
+    """MessageTooLarge for a trajectory bigger than its joint and point counts allow: the
+    counts alone do not bound a message whose points carry long per-point arrays."""
+    joints, points, header = _trajectory_header(raw)
+    check_trajectory_size(joints, points)
+    limit = header + points * (POINT_FIXED + 4 * (SEQUENCE_FIXED + 8 * joints)) + ENCAPSULATION
+    if len(raw) > limit:
+        raise MessageTooLarge(f'{len(raw)} bytes, more than the {limit} bytes {joints} joint name(s) and '
+                              f'{points} point(s) can take (each point at most 4 arrays of one float64 per joint)')
+
+
+def _trajectory_header(raw: bytes) -> tuple[int, int, int]:
+    """(joint names, points, bytes up to the points)."""
     reader = _Reader(raw)
     reader.u32()  # header.stamp.sec
     reader.u32()  # header.stamp.nanosec
     reader.skip_string()  # header.frame_id
     joints = reader.u32()
     if joints > MAX_JOINT_NAMES:
-        return joints, 0
+        return joints, 0, reader.pos
     for _ in range(joints):
         reader.skip_string()
-    return joints, reader.u32()
+    points = reader.u32()
+    return joints, points, reader.pos
 
 
 def check_trajectory_size(joints: int, points: int) -> None:

@@ -8,6 +8,7 @@ someone subscribes.
 """
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -57,6 +58,8 @@ class StateTopics:
         self._last_states: tuple = ()
         self._unavailable: set[str] = set()
         self._seen: set[str] = set()  # joints published at least once
+        # joint and axis states are published from the CAN, cycle, executor and timer threads
+        self._states_lock = threading.RLock()
         self.active = False
         # the recorder's tee (topic, message) after each publish, and extra /diagnostics lines
         self.tee: Callable[[str, Any], None] | None = None
@@ -109,16 +112,25 @@ class StateTopics:
     def _publish_states(self) -> None:
         if not self.active:
             return
-        now = time.monotonic()
-        if self._min_interval and now - self._last_joint_states < self._min_interval:
-            return
-        self._last_joint_states = now
-        self.publish_joint_states()
-        self.publish_axis_states(force=False)
+        if not self._states_lock.acquire(blocking=False):
+            return  # another thread (CAN, cycle, executor) publishes this cycle's states right now
+        try:
+            now = time.monotonic()
+            if self._min_interval and now - self._last_joint_states < self._min_interval:
+                return
+            self._last_joint_states = now
+            self.publish_joint_states()
+            self.publish_axis_states(force=False)
+        finally:
+            self._states_lock.release()
 
     def publish_joint_states(self) -> None:
         """Available joints only: a joint whose drive is lost is left out (and reported on
         ~/axis_states and /diagnostics) instead of repeating a stale value."""
+        with self._states_lock:
+            self._publish_joint_states()
+
+    def _publish_joint_states(self) -> None:
         msg = JointState()
         newest = 0.0
         unavailable = set()
@@ -148,6 +160,10 @@ class StateTopics:
         """On every change of state, mode or flags; and at state_rate when forced."""
         if not self.active:
             return
+        with self._states_lock:
+            self._publish_axis_states(force)
+
+    def _publish_axis_states(self, force: bool) -> None:
         snapshots = [self.master.axes[j].snapshot() for j in self.joints]
         key = tuple((s.available, s.drive_state, s.statusword, s.mode, s.controlword, s.command_stale, s.fault,
                      s.halted) for s in snapshots)

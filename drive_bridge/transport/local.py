@@ -32,6 +32,7 @@ _FRAME = struct.Struct('<IBB8s')
 _EXTENDED, _REMOTE, _ERROR = 1, 2, 4
 _SOCKET_SUFFIX = '.sock'
 _PATH_MAX = 107  # sun_path is 108 bytes with the terminating NUL
+RESCAN_PERIOD = 0.1  # s: the peer directory is re-read at least this often
 _counter = 0
 _counter_lock = threading.Lock()
 
@@ -84,10 +85,14 @@ class LocalBus(can.BusABC):
             raise TransportError(f'local CAN channel {channel!r}: cannot bind {self.path}: {exc}') from exc
         self._tx = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self._tx.settimeout(send_timeout)
+        self._tx_nowait = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self._tx_nowait.setblocking(False)  # for slow peers (a socket with a timeout waits on EAGAIN)
         self._rx_timeout: float | None = -1.0  # what the rx socket is set to (-1: not set yet)
         self._send_lock = threading.Lock()
         self._peers: list[str] = []
+        self._slow: set[str] = set()  # peers whose queue was full: sent to without waiting
         self._directory_mtime = -1
+        self._scanned = 0.0  # monotonic time of the last directory scan
         self._is_shutdown = False
         self.channel = str(channel)
         self.channel_info = f'local:{self.directory}'
@@ -96,14 +101,17 @@ class LocalBus(can.BusABC):
     # --- sending ---------------------------------------------------------------------------------
 
     def _refresh_peers(self) -> None:
-        """Re-read the channel's directory when it changed (a participant came or left)."""
+        """Re-read the channel's directory when it changed (a participant came or left), and
+        at least every RESCAN_PERIOD: before Linux 6.13 the directory's mtime can miss a peer."""
         try:
             mtime = os.stat(self.directory).st_mtime_ns
         except OSError as exc:
             raise TransportError(f'local CAN channel directory {self.directory} is gone: {exc}') from exc
-        if mtime == self._directory_mtime:
+        now = time.monotonic()
+        if mtime == self._directory_mtime and now - self._scanned < RESCAN_PERIOD:
             return
         self._directory_mtime = mtime
+        self._scanned = now
         own = self.path
         with os.scandir(self.directory) as entries:
             self._peers = [e.path for e in entries if e.name.endswith(_SOCKET_SUFFIX) and e.path != own]
@@ -122,10 +130,15 @@ class LocalBus(can.BusABC):
             gone = []
             for peer in self._peers:
                 try:
-                    self._tx.sendto(datagram, peer)
+                    if peer in self._slow:  # never wait again for a peer that does not read
+                        self._tx_nowait.sendto(datagram, peer)
+                        self._slow.discard(peer)
+                    else:
+                        self._tx.sendto(datagram, peer)
                 except (ConnectionRefusedError, FileNotFoundError):
                     gone.append(peer)
                 except (TimeoutError, BlockingIOError):
+                    self._slow.add(peer)
                     self.dropped += 1
                 except OSError as exc:
                     if exc.errno != errno.ENOBUFS:
@@ -173,6 +186,7 @@ class LocalBus(can.BusABC):
         self._is_shutdown = True
         self._rx.close()
         self._tx.close()
+        self._tx_nowait.close()
         try:
             os.unlink(self.path)
         except OSError:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from drive_bridge.bag.diagnose.model import Context, Severity
-from drive_bridge.master.busload import EXTENDED_EXTRA_BITS, FRAME_OVERHEAD_BITS
+from drive_bridge.cia301.busbits import EXTENDED_EXTRA_BITS, FRAME_OVERHEAD_BITS
 
 BIN_S = 0.1
 # by payload length 0..8 (longer DLCs of CAN FD are not classic frames: counted as 8)
