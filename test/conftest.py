@@ -1,4 +1,5 @@
-"""Test session set-up: DDS on loopback, and a ROS domain of this run's own."""
+"""Test session set-up: DDS on loopback, a ROS domain of this run's own, and no stale Fast DDS
+shared memory left by the processes the tests kill."""
 from __future__ import annotations
 
 import os
@@ -9,7 +10,7 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
 
 import pytest  # noqa: E402
 
-from rostools import RosHarness, ros_harness  # noqa: E402
+from rostools import RosHarness, remove_stale_dds_segments, ros_harness  # noqa: E402
 
 
 @pytest.fixture
@@ -17,6 +18,16 @@ def ros() -> RosHarness:
     """A private rclpy context with a spinning executor, shut down after the test."""
     with ros_harness() as harness:
         yield harness
+
+
+@pytest.fixture(autouse=True)
+def _no_stale_dds_segments():
+    """Remove Fast DDS shared-memory segments no live process maps before each test. Tests
+    SIGKILL bridge and simulator processes on purpose, which leaves their segments in /dev/shm;
+    with hundreds of them a process discovering a new participant stalled for about 0.4 s and
+    the demo's drives faulted by their heartbeat consumer (measured: the README example test
+    failed 5 of 6 runs with 744 stale segments, 0 of 6 without them)."""
+    remove_stale_dds_segments()
 
 
 @pytest.fixture(autouse=True)
