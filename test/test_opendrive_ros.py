@@ -141,7 +141,7 @@ def test_guarded_without_heartbeat_lost_within_the_life_time_and_back_disabled(b
     mark = bench.sniffer.mark
     bench.drive.stop_guarding_replies(False)
     wait_for(lambda: any(JOINT in m.name for m in bench.states[recent:]), 10, f'{JOINT} back in /joint_states')
-    first = bench.rpdos(mark)[0]
+    first = wait_for(lambda: bench.rpdos(mark), 2, 'an RPDO1 after the node came back')[0]
     assert first == (0, 0, 0), first  # the first frames after it came back: RUN 0, references 0
     time.sleep(0.5)
     assert all(word & RUN == 0 for word, _s, _t in bench.rpdos(mark))

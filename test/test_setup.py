@@ -50,16 +50,19 @@ def readme_python_example() -> str:
     return text[start:text.index('```', start)]
 
 
-def test_readme_trajectory_example_moves_the_demo(ros: RosHarness) -> None:
+def _run_readme_example(ros: RosHarness, attempt: int) -> tuple[bool, str]:
+    """The demo bridge in its own process, the README's example against it: whether the joints
+    arrived, and what the bridge printed."""
     from drive_bridge_interfaces.msg import AxisState, AxisStates
     from sensor_msgs.msg import JointState
     exe = Path(sys.prefix) / 'bin' / 'bridge'
     proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    arrived_at_goal = False
     try:
         states: list[JointState] = []
         axes: list[AxisStates] = []
-        watcher = ros.node('example_watcher')
+        watcher = ros.node(f'example_watcher_{attempt}')
         watcher.create_subscription(JointState, '/joint_states', states.append, 100)
         watcher.create_subscription(AxisStates, '/drive_bridge/axis_states', axes.append, 100)
         wait_for(lambda: axes and len(axes[-1].axes) == 4 and all(
@@ -67,14 +70,32 @@ def test_readme_trajectory_example_moves_the_demo(ros: RosHarness) -> None:
         example = subprocess.run([sys.executable, '-c', readme_python_example()], env=dict(os.environ),
                                  capture_output=True, text=True, timeout=60)
         assert example.returncode == 0, example.stderr
+
         def arrived() -> bool:
             final = dict(zip(states[-1].name, states[-1].position))
-            return abs(final['base_joint'] - 1.0) < 0.01 and abs(final['shoulder_joint'] - 0.5) < 0.01
-        wait_for(arrived, 10, 'the example trajectory to reach base_joint 1.0, shoulder_joint 0.5')
+            return abs(final.get('base_joint', 0.0) - 1.0) < 0.01 and abs(final.get('shoulder_joint', 0.0) - 0.5) < 0.01
+        try:
+            wait_for(arrived, 10, 'the example trajectory to reach base_joint 1.0, shoulder_joint 0.5')
+            arrived_at_goal = True
+        except AssertionError:
+            pass
     finally:
         os.killpg(proc.pid, signal.SIGINT)
         try:
-            proc.communicate(timeout=20)
+            out = proc.communicate(timeout=20)[0]
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
+            out = proc.communicate()[0]
+    return arrived_at_goal, out
 
+
+def test_readme_trajectory_example_moves_the_demo(ros: RosHarness) -> None:
+    arrived, out = _run_readme_example(ros, 0)
+    if not arrived and 'heartbeat lost' in out:
+        # Seen in about one of four full-suite runs: the demo's process (bridge and simulated drives
+        # in one Python process) stalls ~0.4 s while another ROS process joins, and the drives
+        # fault by their heartbeat consumer (300 ms) before the trajectory comes. That is the
+        # drives' safety reaction working; the README example itself is tried once more.
+        print('first attempt: the demo stalled and its drives faulted by heartbeat; again')
+        arrived, out = _run_readme_example(ros, 1)
+    assert arrived, f'the README example did not move the demo; the bridge printed: {out[-2000:]}'
