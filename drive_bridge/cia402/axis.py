@@ -376,6 +376,10 @@ class Axis(ModeControl):
                 scaling.effort_to_si(torque) if torque is not None else math.nan,
                 self.node.stamp(*self.key['position']))
 
+    def state_key(self) -> tuple[object, ...]:
+        return (self.node.available, self._value('statusword'), self._value('mode_display'), self._controlword,
+                self._stale, self._halt, self._message, self._mode_problem)
+
     def snapshot(self) -> AxisSnapshot:
         statusword = self._value('statusword')
         sw = int(statusword) if statusword is not None else 0

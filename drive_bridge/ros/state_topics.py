@@ -164,12 +164,11 @@ class StateTopics:
             self._publish_axis_states(force)
 
     def _publish_axis_states(self, force: bool) -> None:
-        snapshots = [self.master.axes[j].snapshot() for j in self.joints]
-        key = tuple((s.available, s.drive_state, s.statusword, s.mode, s.controlword, s.command_stale, s.fault,
-                     s.halted) for s in snapshots)
+        key = tuple(self.master.axes[j].state_key() for j in self.joints)  # every cycle: no snapshots
         if not force and key == self._last_states:
             return
         self._last_states = key
+        snapshots = [self.master.axes[j].snapshot() for j in self.joints]
         msg = AxisStates()
         msg.header.stamp = self.node.get_clock().now().to_msg()
         msg.axes = [axis_state_msg(s) for s in snapshots]

@@ -33,6 +33,7 @@ _EXTENDED, _REMOTE, _ERROR = 1, 2, 4
 _SOCKET_SUFFIX = '.sock'
 _PATH_MAX = 107  # sun_path is 108 bytes with the terminating NUL
 RESCAN_PERIOD = 0.1  # s: the peer directory is re-read at least this often
+STAT_PERIOD = 0.005  # s: the directory's mtime (a peer came or left) is looked at most this often
 _counter = 0
 _counter_lock = threading.Lock()
 
@@ -93,6 +94,7 @@ class LocalBus(can.BusABC):
         self._slow: set[str] = set()  # peers whose queue was full: sent to without waiting
         self._directory_mtime = -1
         self._scanned = 0.0  # monotonic time of the last directory scan
+        self._stated = -STAT_PERIOD  # monotonic time the directory's mtime was last looked at
         self._is_shutdown = False
         self.channel = str(channel)
         self.channel_info = f'local:{self.directory}'
@@ -102,12 +104,17 @@ class LocalBus(can.BusABC):
 
     def _refresh_peers(self) -> None:
         """Re-read the channel's directory when it changed (a participant came or left), and
-        at least every RESCAN_PERIOD: before Linux 6.13 the directory's mtime can miss a peer."""
+        at least every RESCAN_PERIOD: before Linux 6.13 the directory's mtime can miss a peer.
+        The mtime is looked at most every STAT_PERIOD: a stat per frame cost the cycle thread
+        a system call (and a GIL hand-over) for every frame it sent."""
+        now = time.monotonic()
+        if now - self._stated < STAT_PERIOD:
+            return
+        self._stated = now
         try:
             mtime = os.stat(self.directory).st_mtime_ns
         except OSError as exc:
             raise TransportError(f'local CAN channel directory {self.directory} is gone: {exc}') from exc
-        now = time.monotonic()
         if mtime == self._directory_mtime and now - self._scanned < RESCAN_PERIOD:
             return
         self._directory_mtime = mtime

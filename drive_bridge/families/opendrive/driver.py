@@ -572,6 +572,10 @@ class RunLogicDriver:
                 self.units.torque_si(torque) if torque is not None else math.nan,
                 self.node.stamp(*self.key['velocity']))
 
+    def state_key(self) -> tuple[object, ...]:
+        return (self.node.available, self.drive_state, self._alarms(), self._mode, self._halt, self._stale,
+                self._message)
+
     def snapshot(self) -> AxisSnapshot:
         _available, position, velocity, effort, stamp = self.feedback()
         alarms = self._alarms()

@@ -317,6 +317,9 @@ class ServostarAxis(Axis):
             self._stop_deceleration = self.config.limits.max_acceleration or 1.0
         return self._stop_deceleration
 
+    def state_key(self) -> tuple[object, ...]:
+        return (*super().state_key(), self.fault_pending())
+
     def snapshot(self) -> AxisSnapshot:
         snapshot = super().snapshot()
         if snapshot.available and self.fault_pending():
