@@ -235,7 +235,7 @@ class MasterConfig:
 
     node_id: int = 127
     sync_period: float = 0.004  # s; 0 = the bridge sends no SYNC
-    sync_producer: Literal['bridge', 'external'] = 'bridge'
+    sync_producer: Literal['bridge', 'external', 'kernel'] = 'bridge'  # kernel: SocketCAN BCM
     heartbeat_producer_ms: int = 100  # master heartbeat (0 = none)
     heartbeat_consumer: bool = True  # master monitors the nodes' heartbeats
     heartbeat_multiplier: float = 3.0  # consumer time = producer time * multiplier

@@ -50,7 +50,7 @@ def _master(sec: Section | None, multiplier: float | None) -> tuple[MasterConfig
     master = MasterConfig(
         node_id=node_id,
         sync_period=(sync_us if sync_us is not None else 4000) / 1e6,
-        sync_producer=sec.get_str('sync_producer', base.sync_producer, choices=('bridge', 'external')),  # type: ignore[arg-type]
+        sync_producer=sec.get_str('sync_producer', base.sync_producer, choices=('bridge', 'external', 'kernel')),  # type: ignore[arg-type]
         heartbeat_producer_ms=sec.get_int('heartbeat_producer', base.heartbeat_producer_ms, lo=0, hi=0xFFFF) or 0,
         heartbeat_consumer=sec.get_bool('heartbeat_consumer', base.heartbeat_consumer),
         heartbeat_multiplier=sec.get_number('heartbeat_multiplier', fallback, ge=1) or fallback)

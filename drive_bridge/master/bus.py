@@ -91,7 +91,7 @@ class TappedBus(can.BusABC):
         self.channel_info = f'tapped {inner.channel_info}'
 
     # periodic sends (e.g. the master heartbeat) use BusABC's thread task, which calls
-    # send() and so passes the tap
+    # send() and so passes the tap; send_periodic_by_interface passes through to the inner bus
 
     @property
     def inner(self) -> can.BusABC:
@@ -189,6 +189,13 @@ class TappedBus(can.BusABC):
         return ThreadBasedCyclicSendTask(_QuietSender(self), threading.Lock(), msgs, period, duration,  # type: ignore[arg-type]
                                          on_error=lambda _exc: True, autostart=autostart,
                                          modifier_callback=modifier_callback)
+
+    def send_periodic_by_interface(self, msg: can.Message, period: float) -> CyclicSendTaskABC:
+        """The inner interface's own periodic task (SocketCAN: the kernel's BCM timer), for
+        ``sync_producer: kernel``. Its frames do not pass send() and so not the tap's send
+        path; SocketCAN loops them back to the RAW socket, so they arrive through recv() as
+        received frames (``is_rx=True``) and are tapped, counted and recorded there."""
+        return self._inner.send_periodic(msg, period)
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         return self._inner.recv(timeout), True  # not used: recv is delegated whole

@@ -22,6 +22,7 @@ import canopen
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC as UPDATE_PERIOD_WITHOUT_SYNC
+from drive_bridge.config.errors import ConfigError
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
@@ -32,6 +33,7 @@ from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.feedback import CycleFeedback
 from drive_bridge.master.flood import UnknownFrames
 from drive_bridge.master.guarding import GuardEventKind
+from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
@@ -88,6 +90,7 @@ class Master:
         self._cycle_listeners: list[Callable[[int], None]] = []
         self.feedback = CycleFeedback()
         self.sync: SyncProducer | None = None
+        self.kernel_sync: KernelSync | None = None  # sync_producer: kernel
         self._heartbeat_task: canopen.network.PeriodicMessageTask | None = None
         self._stop = threading.Event()
         self._supervisor: threading.Thread | None = None
@@ -147,11 +150,13 @@ class Master:
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
-        """Open the bus, start SYNC and heartbeat, and boot every node in the background."""
+        """Open the bus, start SYNC and heartbeat, and boot every node in the background.
+        ConfigError when the bus cannot do what the configuration asks (nothing left running)."""
         if self.started:
             return
         cfg = self.config
         raw = self._raw_bus or open_bus(cfg.bus.interface, cfg.bus.channel, cfg.bus.bitrate, **dict(cfg.bus.options))
+        self._check_capabilities(raw)
         self.bus = TappedBus(raw, self.tap, on_fault=lambda text: log.warning('%s', text))
         self.network.bus = self.bus
         self.network.connect()
@@ -180,14 +185,29 @@ class Master:
         self._supervisor = threading.Thread(target=self._supervise, name='drive_bridge-supervisor', daemon=True)
         self._supervisor.start()
 
+    def _check_capabilities(self, raw: can.BusABC) -> None:
+        """What the configuration needs of the interface, checked before anything runs on it."""
+        cfg = self.config
+        if cfg.master.sync_period > 0 and cfg.master.sync_producer == 'kernel':
+            try:
+                require_kernel_periodic(raw, cfg.bus.interface, cfg.bus.channel,
+                                        str(cfg.path) if cfg.path else 'bus configuration')
+            except ConfigError:
+                if self._raw_bus is None:  # the master's own interface; one passed in is the caller's
+                    raw.shutdown()
+                raise
+
     def _start_cycle(self) -> None:
         master = self.config.master
         def on_error(text: str) -> None:
             if not self.bus_down and not (self.bus is not None and self.bus.health().failing):
                 self._emit(EventKind.ERROR, Level.ERROR, text)  # a failing bus: once, as BUS_ERROR
-        if master.sync_period > 0 and master.sync_producer == 'external':
-            self._cycle_count = 0
+        if master.sync_period > 0 and master.sync_producer in ('external', 'kernel'):
+            self._cycle_count = 0  # the cycle follows each SYNC received (kernel: looped back)
             self.network.subscribe(SYNC_COB_ID, self._on_external_sync)
+            if master.sync_producer == 'kernel' and self.bus is not None:
+                self.kernel_sync = KernelSync(self.bus, master.sync_period)
+                self.kernel_sync.start()
             return
         period = master.sync_period if master.sync_period > 0 else UPDATE_PERIOD_WITHOUT_SYNC
         self.sync = SyncProducer(self.network.send_message, period, send_sync=master.sync_period > 0,
@@ -198,7 +218,7 @@ class Master:
         self.sync.start()
 
     def _on_external_sync(self, _can_id: int, _data: bytearray, _timestamp: float) -> None:
-        """Another node produces SYNC: send the RPDOs for the next one right away."""
+        """Another node (or the kernel) produced SYNC: send the RPDOs for the next one right away."""
         cycle = self._cycle_count
         self._cycle_count += 1
         self.feedback.arm(cycle)
@@ -217,6 +237,8 @@ class Master:
             thread.join(timeout=5)
         if self.sync is not None:
             self.sync.stop()
+        if self.kernel_sync is not None:
+            self.kernel_sync.stop()
         if self._heartbeat_task is not None:
             self._heartbeat_task.stop()
         for node in self.nodes.values():
@@ -293,6 +315,8 @@ class Master:
         health = self.bus.health()
         channel = self.config.bus.channel
         if health.failing and not self.bus_down and now - health.failing_since >= BUS_DOWN_AFTER:
+            if self.kernel_sync is not None:
+                self.kernel_sync.stop()  # restarted on the interface that works again
             self.bus_down = True
             for node in self.nodes.values():
                 self._reset_axes(node)
@@ -304,6 +328,8 @@ class Master:
         elif health.failing and self.bus_down:
             self._reopen(now, health.failing_since)
         elif self.bus_down:
+            if self.kernel_sync is not None:
+                self.kernel_sync.start()
             self.bus_down = False
             for node in self.nodes.values():
                 if node.boot_state is not BootState.BOOTING:

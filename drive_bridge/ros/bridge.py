@@ -79,7 +79,13 @@ class Bridge:
             if self.simulation is not None:
                 self.simulation.stop()
             raise StartupError(str(exc)) from None
-        self.master.start()
+        try:
+            self.master.start()
+        except DriveBridgeError as exc:  # e.g. the interface cannot do what the configuration asks
+            self.recording.close()
+            if self.simulation is not None:
+                self.simulation.stop()
+            raise StartupError(f'cannot start bus {config.bus.interface}:{config.bus.channel}: {exc}') from None
         self.trajectories = TrajectoryExecutor(
             self.master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
             pvt_segment=params.pvt_segment, pvt_lookahead=params.pvt_lookahead)
