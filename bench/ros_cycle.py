@@ -8,7 +8,11 @@ with the same PDO maps, is what the canopen and rclpy documentation lead to: can
 ``network.sync.start`` (python-can's thread task), ``RemoteNode`` TPDO callbacks decoding
 with ``PdoVariable.raw``, and an rclpy timer at the SYNC period that writes the set-points
 (the same motion, computed in place: it has no trajectory handling to pay for) and
-publishes the joint states.
+publishes the joint states. The core variant (bench/ros_cycle_core.py), also in the same
+run, is the bridge's core alone in the bridge process, without rclpy: Master and
+TrajectoryExecutor streaming the same motion and reading the joint feedback each cycle,
+publishing nothing (no subscriber): what moving the cycle and the CAN I/O into a process of
+their own could gain at most.
 
 Per case, measured in the bridge process over the window (frames seen by its bus tap):
 SYNC interval at send (p50/p99/max), skipped cycles (grid points without a SYNC), set-points
@@ -16,9 +20,12 @@ on time (every node's set-point RPDO sent after SYNC n-1 and before SYNC n) and 
 before its SYNC the last one went out; at the subscriber: TPDO reception (the JointState
 stamp, taken from the received TPDO) -> message received (p50/p99); the bridge process's
 CPU (psutil, % of one core); the bus load of the PDO maps (budget, worst-case stuffing);
-rows over 70 % of 1 Mbit/s are marked ``!`` (run with bus.allow_overload).
+rows over 70 % of 1 Mbit/s are marked ``!`` (run with bus.allow_overload). The machine's floor
+for these figures, meanwhile: a bare sleep loop on the period grid in a process of its own, with
+the bridge's skip rule (interval p99 between its wake-ups, as the SYNC p99, and skipped share).
 
     .venv/bin/python -m bench ros_cycle [--quick] [--axes 1 2 4 6 8] [--periods 1 2 4 10] [--seconds 10]
+        [--variants bridge naive core] [--maps default|compact]
 """
 from __future__ import annotations
 
@@ -45,10 +52,13 @@ TOOL = Path(sys.executable).parent / 'drive-bridge'
 AMPLITUDE = 0.3  # rad
 FREQUENCY = 0.5  # Hz
 WARMUP = 1.0  # s of streaming before the window opens
+POINT_STEP = 0.05  # s between the streamed trajectory's points
+TRAJECTORY_MARGIN = 15.0  # s of trajectory beyond warm-up and window: start-up, the probe's wait
 # the RPDO carrying the set-point (target position): RPDO 2 of the generic 402 family's default
 # maps (target position + velocity), RPDO 1 of the compact maps (controlword + target position)
 RPDO_SETPOINT = {'default': 0x300, 'compact': 0x200}
 MAPS = tuple(RPDO_SETPOINT)
+VARIANTS = ('bridge', 'naive', 'core')
 
 
 def _entries(*indices: int) -> list[dict[str, int]]:
@@ -72,6 +82,17 @@ def motion(t: float, k: int) -> float:
 
 def motion_velocity(t: float, k: int) -> float:
     return AMPLITUDE * 2 * math.pi * FREQUENCY * math.sin(2 * math.pi * FREQUENCY * t) * (1 + 0.1 * k)
+
+
+def trajectory_points(starts: list[float], seconds: float) -> list[tuple[float, list[float], list[float]]]:
+    """(time, positions, velocities) of the streamed motion from ``starts``, long enough for
+    ``seconds`` and the case's set-up; within the core's MAX_TRAJECTORY_POINTS."""
+    from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
+    total = seconds + TRAJECTORY_MARGIN
+    step = max(POINT_STEP, total / (MAX_TRAJECTORY_POINTS - 1))
+    return [(n * step, [start + motion(n * step, k) for k, start in enumerate(starts)],
+             [motion_velocity(n * step, k) for k in range(len(starts))])
+            for n in range(1, math.ceil(total / step) + 1)]
 
 
 def bus_data(axes: int, period_ms: float, channel: str, maps: str = 'default') -> dict[str, Any]:
@@ -129,7 +150,10 @@ class Window:
                 return
 
 
-def bridge_role(config_path: str, variant: str, out: str) -> None:
+def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> None:
+    if variant == 'core':  # before rclpy is imported: the core variant runs without it
+        from bench.ros_cycle_core import core_role
+        return core_role(config_path, seconds, out)
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     window = Window()
@@ -165,10 +189,14 @@ def bridge_role(config_path: str, variant: str, out: str) -> None:
     spin.start()
     control.join()
     sync_stats = None
-    if variant == 'bridge' and node.master.sync is not None:
-        s = node.master.sync.stats()
-        sync_stats = {'skipped': s.skipped, 'cycles': s.cycles}
-    Path(out).write_text(json.dumps({'frames': window.frames, 'cpu': window.cpu[0], 'own': sync_stats}))
+    streaming = None
+    if variant == 'bridge':
+        streaming = [h.state for h in node.trajectories.active()]
+        if node.master.sync is not None:
+            s = node.master.sync.stats()
+            sync_stats = {'skipped': s.skipped, 'cycles': s.cycles}
+    Path(out).write_text(json.dumps({'frames': window.frames, 'cpu': window.cpu[0], 'own': sync_stats,
+                                     'streaming': streaming}))
     close()
     executor.shutdown(timeout_sec=1)
     os._exit(0)  # rclpy teardown in a benchmark child is not measured
@@ -289,7 +317,7 @@ def NaiveBridge(config_path: str, window: Window, ready: threading.Event) -> Any
 
 # --- the subscriber process ---------------------------------------------------------------------
 
-def subscriber_role(joints: int, out: str, stream: bool) -> None:
+def subscriber_role(joints: int, out: str, stream: bool, seconds: float) -> None:
     import rclpy
     from builtin_interfaces.msg import Duration
     from rclpy.executors import SingleThreadedExecutor
@@ -310,17 +338,14 @@ def subscriber_role(joints: int, out: str, stream: bool) -> None:
     threading.Thread(target=executor.spin, daemon=True).start()
     while len(latest) < joints:
         time.sleep(0.05)
-    if stream:  # one long trajectory on every axis, from where they are
+    if stream:  # one trajectory on every axis from where they are, outlasting the window
         names = sorted(latest, key=lambda n: int(n[1:]))
         msg = JointTrajectory(joint_names=names)
         start = time.time() + 0.3
         msg.header.stamp.sec, msg.header.stamp.nanosec = int(start), int((start % 1) * 1e9)
-        step, total = 0.05, 600.0
-        for n in range(1, int(total / step)):
-            t = n * step
+        for t, positions, velocities in trajectory_points([latest[j] for j in names], seconds + WARMUP):
             msg.points.append(JointTrajectoryPoint(
-                positions=[latest[j] + motion(t, k) for k, j in enumerate(names)],
-                velocities=[motion_velocity(t, k) for k, _ in enumerate(names)],
+                positions=positions, velocities=velocities,
                 time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9)) % 1_000_000_000)))
         while publisher.get_subscription_count() == 0:
             time.sleep(0.05)
@@ -339,18 +364,22 @@ def probe_role(period: float, seconds: float, out: str) -> None:
     end = deadline + seconds
     skipped = cycles = 0
     late: list[float] = []
+    wakes: list[float] = []
     while deadline < end:
         delay = deadline - time.perf_counter()
         if delay > 0:
             time.sleep(delay)
         woke = time.perf_counter()
         late.append(woke - deadline)
+        wakes.append(woke)
         cycles += 1
         deadline += period
         while deadline - woke < period / 2:
             deadline += period
             skipped += 1
-    Path(out).write_text(json.dumps({'skipped': skipped, 'cycles': cycles, 'late_p99': _pct(late, 0.99)}))
+    intervals = [b - a for a, b in zip(wakes, wakes[1:])]  # as the SYNC intervals: skips included
+    Path(out).write_text(json.dumps({'skipped': skipped, 'cycles': cycles, 'late_p99': _pct(late, 0.99),
+                                     'interval_p99': _pct(intervals, 0.99)}))
 
 
 # --- the orchestrator ---------------------------------------------------------------------------
@@ -384,15 +413,19 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         for _ in range(axes):
             _expect(sim, 'simulating', 'drive-bridge sim')
         bridge = _popen([*me, '--role', 'bridge', '--variant', variant, '--config', str(config),
-                         '--out', str(work / f'{channel}.bridge.json')], env, log)
+                         '--seconds', str(seconds), '--out', str(work / f'{channel}.bridge.json')], env, log)
         processes.append(bridge)
-        sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--out', str(work / f'{channel}.sub.json')]
-                     + (['--stream'] if variant == 'bridge' else []), env, log)
-        processes.append(sub)
+        sub = None
+        if variant != 'core':  # the core variant publishes nothing: no subscriber
+            sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--seconds', str(seconds),
+                          '--out', str(work / f'{channel}.sub.json')] + (['--stream'] if variant == 'bridge' else []),
+                         env, log)
+            processes.append(sub)
         _expect(bridge, 'ready', f'{variant} bridge', 90)
-        _expect(sub, 'streaming', 'subscriber', 60)
+        if sub is not None:
+            _expect(sub, 'streaming', 'subscriber', 60)
         time.sleep(WARMUP + 0.3)
-        assert bridge.stdin is not None and sub.stdin is not None
+        assert bridge.stdin is not None
         bridge.stdin.write('start\n')
         bridge.stdin.flush()
         opened = time.time()
@@ -405,12 +438,18 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         bridge.stdin.flush()
         closed = time.time()
         bridge.wait(30)
-        sub.stdin.write('stop\n')
-        sub.stdin.flush()
-        sub.wait(30)
+        states: list[list[float]] = []
+        if sub is not None:
+            assert sub.stdin is not None
+            sub.stdin.write('stop\n')
+            sub.stdin.flush()
+            sub.wait(30)
+            states = json.loads((work / f'{channel}.sub.json').read_text())
         data = json.loads((work / f'{channel}.bridge.json').read_text())
-        states = json.loads((work / f'{channel}.sub.json').read_text())
         data['probe'] = json.loads((work / f'{channel}.probe.json').read_text())
+        if variant != 'naive' and 'active' not in (data.get('streaming') or []):
+            raise RuntimeError(f'the {variant} bridge was not streaming a trajectory at the window\'s end '
+                               f'(trajectories {data.get("streaming")})')
     except Exception as exc:
         tail = log.read_text(errors='replace').strip().splitlines()[-3:]
         raise RuntimeError(f'{exc}; log: {" | ".join(tail)}') from None
@@ -451,6 +490,7 @@ def analyse(data: dict, states: list[list[float]], axes: int, period: float,
             on_time += 1
             leads.append(sync - last)
     latency = [recv - stamp for recv, stamp in states if stamp > 0]
+    probe = data.get('probe')
     return {'sync_p50': statistics.median(intervals) if intervals else float('nan'),
             'sync_p99': _pct(intervals, 0.99), 'sync_max': max(intervals, default=float('nan')),
             'cycles': len(intervals), 'skipped': skipped,
@@ -458,8 +498,8 @@ def analyse(data: dict, states: list[list[float]], axes: int, period: float,
             'lead_p50': statistics.median(leads) if leads else float('nan'),
             'js_p50': statistics.median(latency) if latency else float('nan'),
             'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'],
-            'idle_skip': (probe['skipped'] / (probe['skipped'] + probe['cycles'])
-                          if (probe := data.get('probe')) else float('nan'))}
+            'idle_skip': probe['skipped'] / (probe['skipped'] + probe['cycles']) if probe else float('nan'),
+            'idle_p99': probe.get('interval_p99', float('nan')) if probe else float('nan')}
 
 
 def _ratio(naive: float, bridge: float, lower_is_better: bool = True) -> str:
@@ -471,21 +511,27 @@ def _ratio(naive: float, bridge: float, lower_is_better: bool = True) -> str:
 
 
 HEADER = (f'{"axes":>4} {"ms":>3} {"load":>5} {"":6} {"SYNC p50":>8} {"p99":>6} {"max":>6} {"skipped":>13} '
-          f'{"on time":>7} {"lead":>5} {"js p50":>6} {"js p99":>6} {"CPU":>5} {"idle":>5}')
+          f'{"on time":>7} {"lead":>5} {"js p50":>6} {"js p99":>6} {"CPU":>5} {"idle p99":>8} {"idle skip":>9}')
+
+
+def _ms(value: float, width: int) -> str:
+    """Seconds as ms in ``width``; '-' for a figure the variant does not have."""
+    return f'{value * 1e3:{width}.2f}' if math.isfinite(value) else f'{"-":>{width}}'
 
 
 def row(axes: int, period_ms: float, load: float, variant: str, r: dict) -> str:
     mark = '!' if load > 0.7 else ' '
-    return (f'{axes:4d} {period_ms:3g} {load:4.0%}{mark} {variant:6} {r["sync_p50"] * 1e3:8.2f} '
-            f'{r["sync_p99"] * 1e3:6.2f} {r["sync_max"] * 1e3:6.2f} {r["skipped"]:6d}/{r["cycles"] + r["skipped"]:<6d} '
-            f'{r["on_time"]:7.1%} {r["lead_p50"] * 1e3:5.2f} {r["js_p50"] * 1e3:6.2f} {r["js_p99"] * 1e3:6.2f} '
-            f'{r["cpu"]:5.0%} {r["idle_skip"]:5.1%}')
+    return (f'{axes:4d} {period_ms:3g} {load:4.0%}{mark} {variant:6} {_ms(r["sync_p50"], 8)} '
+            f'{_ms(r["sync_p99"], 6)} {_ms(r["sync_max"], 6)} {r["skipped"]:6d}/{r["cycles"] + r["skipped"]:<6d} '
+            f'{r["on_time"]:7.1%} {_ms(r["lead_p50"], 5)} {_ms(r["js_p50"], 6)} {_ms(r["js_p99"], 6)} '
+            f'{r["cpu"]:5.0%} {_ms(r["idle_p99"], 8)} {r["idle_skip"]:9.1%}')
 
 
 def ratio_row(bridge: dict, naive: dict, period: float) -> str:
+    """naive / bridge under the figure's column (jitter = |SYNC p99 - period|, late = 1 - on time)."""
     jitter = lambda r: abs(r['sync_p99'] - period)  # noqa: E731
     late = lambda r: 1 - r['on_time']  # noqa: E731
-    return (f'{"":14} {"ratio":6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>13} {"":6} '
+    return (f'{"":14} {"ratio":6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>6} {"":6} '
             f'{_ratio(naive["skipped"], bridge["skipped"]):>13} {_ratio(late(naive), late(bridge)):>7} {"":5} '
             f'{"":6} {_ratio(naive["js_p99"], bridge["js_p99"]):>6} {_ratio(naive["cpu"], bridge["cpu"]):>5}')
 
@@ -503,15 +549,15 @@ def main(argv: list[str]) -> None:
     parser.add_argument('--axes', type=int, nargs='+', default=[1, 2, 4, 6, 8])
     parser.add_argument('--periods', type=float, nargs='+', default=[1, 2, 4, 10], help='SYNC periods in ms')
     parser.add_argument('--seconds', type=float, default=10.0, help='measurement window per case (default 10)')
-    parser.add_argument('--variants', nargs='+', default=['bridge', 'naive'], choices=['bridge', 'naive'])
+    parser.add_argument('--variants', nargs='+', default=list(VARIANTS), choices=VARIANTS)
     parser.add_argument('--maps', choices=MAPS, default='default',
                         help="PDO maps: the family's default (2 RPDOs + 2 TPDOs per axis) or compact (1 + 1 "
                              'per cycle, the statusword on change)')
     args = parser.parse_args(argv)
     if args.role == 'bridge':
-        return bridge_role(args.config, args.variant, args.out)
+        return bridge_role(args.config, args.variant, args.out, args.seconds)
     if args.role == 'subscriber':
-        return subscriber_role(args.joints, args.out, args.stream)
+        return subscriber_role(args.joints, args.out, args.stream, args.seconds)
     if args.role == 'probe':
         return probe_role(args.period, args.seconds, args.out)
     if args.quick:
@@ -526,8 +572,9 @@ def main(argv: list[str]) -> None:
         print(f'{args.seconds:g} s per case; SYNC/lead/js in ms; skipped = grid points without SYNC of all; '
               'on time = SYNCs whose every set-point RPDO went out after the previous SYNC; '
               "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
-              "idle = cycles a bare sleep loop in another process skipped meanwhile (the machine's own share); "
-              "'!' = over 70 % of 1 Mbit/s")
+              "core = Master + TrajectoryExecutor alone, no rclpy (no subscriber: js '-'); "
+              "idle p99/skip = a bare sleep loop on the grid in another process meanwhile: its interval p99 "
+              "and skipped share (the machine's floor); ratio = naive/bridge; '!' = over 70 % of 1 Mbit/s")
         print(HEADER)
         for period_ms in args.periods:
             for axes in args.axes:
@@ -539,7 +586,7 @@ def main(argv: list[str]) -> None:
                         print(row(axes, period_ms, budget.load or 0.0, variant, results[variant]), flush=True)
                     except Exception as exc:
                         print(f'{axes:4d} {period_ms:3g} {variant:6} could not run: {exc}', flush=True)
-                if len(results) == 2:
+                if 'bridge' in results and 'naive' in results:
                     print(ratio_row(results['bridge'], results['naive'], period_ms / 1000), flush=True)
 
 
