@@ -155,6 +155,10 @@ class Axis(ModeControl):
         return self.node.available
 
     @property
+    def halted(self) -> bool:
+        return self._halt
+
+    @property
     def drive_state(self) -> DriveState:
         """The drive-independent state (unavailable while the node is not)."""
         return DriveState.UNAVAILABLE if not self.node.available else DRIVE_STATE[self.state]

@@ -64,6 +64,11 @@ class JointDriver(Protocol):
         """The mode the bridge requests."""
         ...
 
+    @property
+    def halted(self) -> bool:
+        """HALT is set, by an intent or by the driver itself (e.g. on a following error)."""
+        ...
+
     def on_cycle(self, now: float) -> None: ...
     def on_node_reset(self) -> None:
         """The node is configured again after a reboot or a loss: drop every intent; the

@@ -273,7 +273,10 @@ class TrajectoryExecutor:
             if handle.state == 'pending' and now >= handle.start:
                 handle.state = 'active'
             for joint in handle.joints:
-                snapshot = self.axes[joint].snapshot()
+                axis = self.axes[joint]
+                if axis.drive_state is DriveState.ENABLED and axis.available and not axis.halted:
+                    continue  # every cycle: no snapshot unless the reason is needed
+                snapshot = axis.snapshot()
                 if snapshot.drive_state is not DriveState.ENABLED or not snapshot.available:
                     emcy = f'; {snapshot.last_emcy}' if snapshot.last_emcy else ''
                     why = f': {snapshot.message}' if not snapshot.available and snapshot.message else ''

@@ -170,6 +170,10 @@ class RunLogicDriver:
         return self.node.available
 
     @property
+    def halted(self) -> bool:
+        return self._halt
+
+    @property
     def mode(self) -> int:
         return self._mode
 
