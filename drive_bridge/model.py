@@ -239,6 +239,7 @@ class MasterConfig:
     heartbeat_producer_ms: int = 100  # master heartbeat (0 = none)
     heartbeat_consumer: bool = True  # master monitors the nodes' heartbeats
     heartbeat_multiplier: float = 3.0  # consumer time = producer time * multiplier
+    sync_window: float | None = None  # s, written to 0x1007 of every node that has it; None = not written
 
 
 @dataclass(frozen=True)

@@ -373,3 +373,40 @@ def test_master_heartbeat_loss_on_a_301_node_sends_emcy_8130(bench: SimBench) ->
     reset = bench.log.wait_for(EMCY, since=t, timeout=0.5)[0]
     assert reset.data == bytes(8)
     assert node.sdo[0x1001].raw == 0
+
+
+def test_synchronous_rpdo_after_the_sync_window_is_discarded_until_the_next_sync(bench: SimBench) -> None:
+    sim, node = bench.add_drive(NODE)
+    assert node.sdo[0x1007].raw == 0, 'the generic EDS has 0x1007, window not used by default'
+    node.sdo[0x1007].raw = 2000  # µs
+    start(bench, sim)
+    rpdo2 = 0x300 + NODE  # 0x607A target position, 0x60FF target velocity; transmission type 1
+
+    def target(position: int) -> bytes:
+        return struct.pack('<ii', position, 0)
+
+    bench.send(0x080, b'')
+    bench.send(rpdo2, target(1111))  # inside the window: applied at the next SYNC
+    time.sleep(0.01)
+    bench.send(0x080, b'')
+    wait_until(lambda: sim.value(0x607A) == 1111, 0.5, 'RPDO inside the window applied')
+    time.sleep(0.006)  # the window of that SYNC expired 2 ms after it
+    bench.send(rpdo2, target(2222))
+    time.sleep(0.01)
+    bench.send(0x080, b'')
+    time.sleep(0.02)
+    assert sim.value(0x607A) == 1111, 'an RPDO received after the window is not applied'
+    assert sim.pdo.rpdo_late == 1
+    bench.send(0x080, b'')  # a new SYNC opens a new window
+    bench.send(rpdo2, target(3333))
+    time.sleep(0.01)
+    bench.send(0x080, b'')
+    wait_until(lambda: sim.value(0x607A) == 3333, 0.5, 'RPDO in the next window applied')
+    assert sim.pdo.rpdo_late == 1
+    node.sdo[0x1007].raw = 0  # not used: nothing is late
+    bench.send(0x080, b'')
+    time.sleep(0.01)
+    bench.send(rpdo2, target(4444))
+    bench.send(0x080, b'')
+    wait_until(lambda: sim.value(0x607A) == 4444, 0.5, 'window 0: RPDOs apply whenever received')
+    assert sim.pdo.rpdo_late == 1

@@ -178,3 +178,4 @@ def test_diagnostics_report_sync_timing_and_setpoint_lead(ros, bridge) -> None:
     assert float(values['frames_per_second']) > 500
     for key in ('sync_interval_p99', 'sync_jitter_max', 'setpoint_lead_max', 'sync_skipped', 'bus_load'):
         assert key in values
+    assert values['late_setpoints'] == '0'  # no master.sync_window: no set-point is ever too late

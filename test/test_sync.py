@@ -76,3 +76,52 @@ def test_a_failing_hook_is_reported_and_sync_continues() -> None:
     producer.stop()
     assert len(sent) >= 10 and producer.hook_errors in (len(sent), len(sent) + 1)  # one cycle ahead
     assert "failed: RuntimeError('boom')" in errors[0]
+
+
+def test_set_points_the_synchronous_window_would_discard_are_not_sent_but_counted() -> None:
+    period, window = 0.01, 0.003
+    log: list[tuple[str, int, float]] = []
+    waits: list[float] = []
+    late_cycles = {5, 6, 12}
+
+    def feedback(timeout: float) -> bool:  # the drives' TPDOs: late for three cycles
+        waits.append(timeout)
+        if len(waits) in late_cycles:
+            time.sleep(0.004)  # the cycle thread stalls past the 3 ms window
+        return True
+
+    producer = SyncProducer(lambda cob, data: log.append(('sync', 0, time.perf_counter())), period,
+                            feedback=feedback, sync_window=window)
+    producer.add_before_sync(lambda cycle: log.append(('before', cycle, time.perf_counter())))
+    producer.start()
+    time.sleep(0.25)
+    producer.stop()
+    cycles = [c for k, c, _ in log if k == 'before']
+    syncs = [t for k, _, t in log if k == 'sync']
+    skipped = set(range(max(cycles) + 1)) - set(cycles)
+    assert late_cycles <= skipped, 'no set-points for the SYNCs after a stall past the window'
+    # (a loaded machine may stall a cycle more: it is counted the same way)
+    late = producer.stats().late_setpoints
+    assert late == producer.late_setpoints and late - len(skipped) in (0, 1) and late < len(cycles) / 2  # 1: at stop
+    # every set-point sent left inside the window of the SYNC before it
+    for kind, _, t in log:
+        if kind == 'before' and t > syncs[0]:
+            previous = max(s for s in syncs if s < t)
+            assert t - previous < window, t - previous
+    # the wait for the drives' TPDOs ends at half the window at the latest
+    assert waits and all(0 <= w <= window / 2 for w in waits)
+
+
+def test_without_a_window_a_slow_cycle_still_sends_its_set_points() -> None:
+    sent: list[int] = []
+
+    def feedback(timeout: float) -> bool:
+        time.sleep(0.004)
+        return True
+
+    producer = SyncProducer(lambda cob, data: None, 0.01, feedback=feedback)
+    producer.add_before_sync(sent.append)
+    producer.start()
+    time.sleep(0.1)
+    producer.stop()
+    assert producer.late_setpoints == 0 and sent == list(range(len(sent))) and len(sent) >= 8

@@ -41,6 +41,7 @@ def communication_objects(od: canopen.ObjectDictionary, axes: int) -> None:
     od.add_object(field)
     od.add_object(var('COB-ID SYNC', 0x1005, 0, u32, 'rw', 0x80))
     od.add_object(var('Communication cycle period', 0x1006, 0, u32, 'rw', 0))
+    od.add_object(var('Synchronous window length', 0x1007, 0, u32, 'rw', 0))  # µs, 0 = not used
     od.add_object(var('Manufacturer device name', 0x1008, 0, dt.VISIBLE_STRING, 'const',
                       f'drive_bridge simulated CiA 402 drive ({axes} axis)'))
     od.add_object(var('Manufacturer hardware version', 0x1009, 0, dt.VISIBLE_STRING, 'const', 'sim'))

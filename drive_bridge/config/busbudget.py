@@ -137,8 +137,10 @@ def budget_of(config: BusConfig) -> BusBudget:
     return bus_budget(config.bus.bitrate, config.master, config.nodes)
 
 
-def budget_verdict(budget: BusBudget, allow_overload: bool) -> tuple[str | None, str | None]:
-    """(warning, error) texts for the configuration check; both None when the load is fine."""
+def budget_verdict(budget: BusBudget, allow_overload: bool,
+                   period_key: str = 'master.sync_period') -> tuple[str | None, str | None]:
+    """(warning, error) texts for the configuration check; both None when the load is fine.
+    ``period_key`` names the setting the remedy tells to change (a ROS parameter may override it)."""
     load = budget.load
     if load is None:
         return (f'{budget.describe()}: bus.bitrate is null (left to the interface), so the budget is not checked',
@@ -146,11 +148,13 @@ def budget_verdict(budget: BusBudget, allow_overload: bool) -> tuple[str | None,
     if load <= WARN_LOAD:
         return None, None
     shortest = budget.period_for(WARN_LOAD)
-    remedy = (f'set master.sync_period to at least {shortest * 1e6:.0f} µs' if shortest is not None
+    remedy = (f'set {period_key} to at least {shortest * 1e6:.0f} µs' if shortest is not None
               else 'the heartbeats alone exceed it: lengthen heartbeat_producer')
     advice = (f'{remedy}, map fewer or smaller PDOs (a 6-byte TPDO instead of 8), raise bus.bitrate, '
               f'or split the nodes over two buses')
     if load > 1.0 and not allow_overload:
-        return None, (f'{budget.describe()}: the bus cannot carry it; {advice} '
+        fits = budget.period_for(1.0)
+        limit = f' (it fits from {fits * 1e6:.0f} µs, with no room left)' if fits is not None else ''
+        return None, (f'{budget.describe()}: the bus cannot carry it{limit}; {advice} '
                       '(bus.allow_overload: true runs it anyway, for experiments)')
     return f'{budget.describe()}: over {WARN_LOAD:.0%}, no room for SDO, EMCY and retries; {advice}', None

@@ -6,7 +6,7 @@ TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation', 'access', 
 BUS = ('interface', 'channel', 'bitrate', 'options', 'allow_overload')
 OPTIONS = ('dcf_path', 'heartbeat_multiplier')
 MASTER = ('node_id', 'sync_period', 'sync_producer', 'heartbeat_producer', 'heartbeat_consumer',
-          'heartbeat_multiplier', 'baudrate')
+          'heartbeat_multiplier', 'baudrate', 'sync_window')
 SIMULATION = ('enabled', 'nodes')
 RECORD = ('path', 'split_size_mb', 'split_seconds', 'start')
 
@@ -17,7 +17,7 @@ MASTER_IGNORED: dict[str, str] = {
     'remappings': _ROS_COMPONENT,
     **{key: 'master identity (0x1018) of a lely master; drive_bridge does not publish one'
        for key in ('vendor_id', 'product_code', 'revision_number', 'serial_number')},
-    **{key: _LELY_MASTER for key in ('emcy_inhibit_time', 'sync_window', 'sync_overflow', 'error_behavior',
+    **{key: _LELY_MASTER for key in ('emcy_inhibit_time', 'sync_overflow', 'error_behavior',
                                      'nmt_inhibit_time', 'start', 'start_nodes', 'start_all_nodes',
                                      'reset_all_nodes', 'stop_all_nodes', 'boot_time')},
     'boot_timeout': 'ros2_canopen wait for its master process; use boot_timeout_ms per node',

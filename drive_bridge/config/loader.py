@@ -12,6 +12,7 @@ import can
 from drive_bridge.config import keys
 from drive_bridge.config.access import parse_access
 from drive_bridge.config.busbudget import budget_verdict, bus_budget
+from drive_bridge.config.cycle import sync_window_problem
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
@@ -53,8 +54,20 @@ def _master(sec: Section | None, multiplier: float | None) -> tuple[MasterConfig
         sync_producer=sec.get_str('sync_producer', base.sync_producer, choices=('bridge', 'external', 'kernel')),  # type: ignore[arg-type]
         heartbeat_producer_ms=sec.get_int('heartbeat_producer', base.heartbeat_producer_ms, lo=0, hi=0xFFFF) or 0,
         heartbeat_consumer=sec.get_bool('heartbeat_consumer', base.heartbeat_consumer),
-        heartbeat_multiplier=sec.get_number('heartbeat_multiplier', fallback, ge=1) or fallback)
+        heartbeat_multiplier=sec.get_number('heartbeat_multiplier', fallback, ge=1) or fallback,
+        sync_window=_sync_window(sec))
+    problem = sync_window_problem(master)
+    if problem:
+        sec.issues.error(sec.loc('sync_window'), problem)
     return master, sec.get_int('baudrate', lo=1, hi=1000)
+
+
+def _sync_window(sec: Section) -> float | None:
+    """master.sync_window (µs) in seconds; null or 0 (CiA 301: not used, lely's default) = not written."""
+    if sec.get('sync_window') is None:
+        return None
+    window_us = sec.get_int('sync_window', lo=0)
+    return window_us / 1e6 if window_us else None
 
 
 def _bus(sec: Section | None, baudrate_kbit: int | None, issues: Issues) -> BusInterface:

@@ -29,6 +29,7 @@ COB_ID_INVALID = 0x80000000
 
 PROBE_INTERVAL = 0.05  # s between SDO probes of a node that announces no boot-up
 PROBE_TIMEOUT = 0.1
+SYNC_WINDOW = 0x1007  # synchronous window length, µs (CiA 301)
 
 
 class BootError(DriveBridgeError):
@@ -279,6 +280,21 @@ def configure_sync(node: NodeRuntime, master: MasterConfig) -> None:
     if master.sync_period > 0 and master.sync_producer in ('bridge', 'kernel') and _has(node, 0x1006):
         period_us = round(master.sync_period * 1e6)
         _sdo_step(node, 'communication cycle period', lambda: node.sdo.write(0x1006, 0, period_us))
+    configure_sync_window(node, master)
+
+
+def configure_sync_window(node: NodeRuntime, master: MasterConfig) -> None:
+    """Write the synchronous window length (0x1007, µs) to a node that has it, and read it
+    back: a drive that keeps another window discards set-points the bridge counts as on time."""
+    if master.sync_window is None or not _has(node, SYNC_WINDOW):
+        return
+    step = 'synchronous window'
+    window_us = round(master.sync_window * 1e6)
+    _sdo_write(node, step, SYNC_WINDOW, 0, window_us)
+    answered = _sdo_read(node, step, SYNC_WINDOW, 0)
+    if answered != window_us:
+        raise BootError(node, step, f'0x{SYNC_WINDOW:04X}:00 (synchronous window length) reads {answered} µs '
+                                    f'after writing {window_us} µs (master.sync_window)')
 
 
 def start_node(node: NodeRuntime) -> None:

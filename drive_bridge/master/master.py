@@ -211,7 +211,8 @@ class Master:
             return
         period = master.sync_period if master.sync_period > 0 else UPDATE_PERIOD_WITHOUT_SYNC
         self.sync = SyncProducer(self.network.send_message, period, send_sync=master.sync_period > 0,
-                                 on_error=on_error, feedback=self.feedback.wait if master.sync_period > 0 else None)
+                                 on_error=on_error, feedback=self.feedback.wait if master.sync_period > 0 else None,
+                                 sync_window=master.sync_window if master.sync_period > 0 else None)
         self.sync.add_at_sync(self.feedback.arm)
         self.sync.add_before_sync(self._before_sync)
         self.sync.add_after_sync(self._after_sync)

@@ -11,9 +11,16 @@ SYNC, sampled at that SYNC's grid time, inside the synchronous window; then the
 ``after_sync`` hooks. Work before the SYNC frame no longer delays it (measured in
 README "Performance"). Deadlines are absolute; a missed deadline is skipped and
 counted, never made up with a burst.
+
+With a synchronous window (0x1007 on the drives) a drive discards synchronous RPDOs received
+later than the window after SYNC: the RPDOs for the next SYNC must leave inside it. The
+feedback wait then ends at half the window at the latest, and a cycle whose ``before_sync``
+hooks would start after the window is skipped and counted (``late_setpoints``): the
+set-points are not sent, the next cycle samples its own.
 """
 from __future__ import annotations
 
+import math
 import statistics
 import threading
 import time
@@ -42,6 +49,7 @@ class SyncStats:
     lead_median: float
     lead_max: float
     hook_errors: int
+    late_setpoints: int = 0  # cycles whose set-points were not sent: the synchronous window had expired
 
 
 def _percentile(values: list[float], fraction: float) -> float:
@@ -57,7 +65,7 @@ class SyncProducer:
     def __init__(self, send: Callable[[int, bytes], None], period: float, *,
                  send_sync: bool = True, window: int = 2000,
                  on_error: Callable[[str], None] | None = None,
-                 feedback: FeedbackWait | None = None) -> None:
+                 feedback: FeedbackWait | None = None, sync_window: float | None = None) -> None:
         if period <= 0:
             raise ValueError(f'SYNC period must be > 0 s, got {period}')
         self.period = period
@@ -65,6 +73,8 @@ class SyncProducer:
         self._send = send
         self._on_error = on_error
         self._feedback = feedback
+        self.sync_window = sync_window or 0.0  # s after SYNC; 0 = no window
+        self._feedback_window = min(FEEDBACK_WINDOW * period, self.sync_window / 2 or math.inf)
         self._at_sync: list[CycleHook] = []
         self._before: list[CycleHook] = []
         self._after: list[CycleHook] = []
@@ -76,6 +86,7 @@ class SyncProducer:
         self.cycles = 0
         self.skipped = 0
         self.hook_errors = 0
+        self.late_setpoints = 0
         self.last_sync_time = 0.0
         # epoch time this cycle's SYNC is scheduled for (the period grid, not when the
         # thread woke up): set-points sampled against it are not shifted by wake-up jitter
@@ -130,9 +141,13 @@ class SyncProducer:
                 if self._on_error is not None:
                     self._on_error(f'cycle hook {getattr(hook, "__qualname__", hook)!r} failed: {exc!r}')
 
-    def _prepare(self, deadline: float, cycle: int) -> None:
-        """The set-points for the SYNC due at ``deadline``, sampled at its grid time."""
+    def _prepare(self, deadline: float, cycle: int, sent: float = 0.0) -> None:
+        """The set-points for the SYNC due at ``deadline``, sampled at its grid time; none when
+        the synchronous window of the SYNC sent at ``sent`` has expired (the drives would discard them)."""
         self.scheduled_time = deadline + self._epoch_offset
+        if self.sync_window and sent and time.perf_counter() - sent > self.sync_window:
+            self.late_setpoints += 1
+            return
         if self._before:
             self._call(self._before, cycle)
             self._prepared = time.perf_counter()
@@ -173,8 +188,8 @@ class SyncProducer:
                 deadline += period
                 self.skipped += 1
             if self._feedback is not None:
-                self._feedback(max(0.0, sent + FEEDBACK_WINDOW * period - time.perf_counter()))
-            self._prepare(deadline, cycle + 1)
+                self._feedback(max(0.0, sent + self._feedback_window - time.perf_counter()))
+            self._prepare(deadline, cycle + 1, sent if self.send_sync else 0.0)
             self._call(self._after, cycle)
 
     def stats(self) -> SyncStats:
@@ -192,4 +207,5 @@ class SyncProducer:
             lead_median=statistics.median(leads) if leads else 0.0,
             lead_max=max(leads, default=0.0),
             hook_errors=self.hook_errors,
+            late_setpoints=self.late_setpoints,
         )

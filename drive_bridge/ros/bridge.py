@@ -10,6 +10,7 @@ from rclpy.node import Node
 
 from drive_bridge.bag.errors import BagError
 from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
+from drive_bridge.config.cycle import with_sync_period
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import DriveState
 from drive_bridge.master.events import BusEvent, Level
@@ -44,8 +45,8 @@ def load_config(params: BridgeParameters) -> BusConfig:
         config = load_bus_config(Path(params.config))
     else:
         raise StartupError('no bus configuration: set the parameter config (a YAML file) or config_yaml')
-    if params.sync_period > 0:
-        config = dataclasses.replace(config, master=dataclasses.replace(config.master, sync_period=params.sync_period))
+    if params.sync_period > 0:  # checked as the file's own period is: window and bus budget
+        config = with_sync_period(config, params.sync_period)
     if params.simulate and not config.simulation.enabled:
         if config.bus.interface != 'virtual':
             raise StartupError(f'parameter simulate needs the virtual CAN interface; the configuration '

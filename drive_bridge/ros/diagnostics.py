@@ -39,7 +39,7 @@ def bus_status(snapshot: BusSnapshot, node_name: str) -> DiagnosticStatus:
                       sync_interval_median=_ms(sync.interval_median), sync_interval_p99=_ms(sync.interval_p99),
                       sync_interval_max=_ms(sync.interval_max), sync_jitter_max=_ms(sync.jitter_max),
                       setpoint_lead_median=_ms(sync.lead_median), setpoint_lead_max=_ms(sync.lead_max),
-                      cycle_errors=sync.hook_errors)
+                      cycle_errors=sync.hook_errors, late_setpoints=sync.late_setpoints)
         if sync.jitter_max > sync.period:
             status.level, status.message = WARN, f'SYNC jitter up to {_ms(sync.jitter_max)}'
     if snapshot.bus_state not in ('ACTIVE', 'CLOSED'):

@@ -30,10 +30,15 @@ TPDOs (254/255) are sent on entering OPERATIONAL, on change (changes within the
 inhibit time coalesce into one frame at its end) and by event timer; RTR-only types
 (252/253) are never sent. With a SYNC counter, a TPDO's first transmission waits for
 the SYNC start value. A (re)configured TPDO restarts its SYNC count.
+
+The synchronous window (0x1007, µs, 0 = not used; CiA 301 §7.5.2.9) opens at each SYNC: a
+synchronous RPDO received after it expired is discarded until the next SYNC (counted in
+``rpdo_late``); times are the frames' receive stamps. Before the first SYNC nothing is late.
 """
 from __future__ import annotations
 
 import functools
+import math
 import struct
 import threading
 import time
@@ -47,6 +52,7 @@ from drive_bridge.sim.store import ObjectStore, key
 from drive_bridge.sim.timers import TimerHandle, TimerThread
 
 RPDO_COMM, RPDO_MAP, TPDO_COMM, TPDO_MAP = 0x1400, 0x1600, 0x1800, 0x1A00
+SYNC_WINDOW = 0x1007
 PDO_PARAMETERS = (0x1400, 0x1BFF)
 COB_INVALID = 1 << 31
 COB_NO_RTR = 1 << 30
@@ -175,11 +181,14 @@ class PdoEngine:
         self._event_tpdos: tuple[Pdo, ...] = ()
         self._sync_tpdos: tuple[Pdo, ...] = ()
         self.rpdo_received = 0
+        self.rpdo_late = 0  # synchronous RPDOs discarded: received after the synchronous window
         self.tpdo_sent = 0
+        self._window_end = math.inf  # receive stamp after which synchronous RPDOs are discarded
 
     # ---- configuration -------------------------------------------------------------
     def rebuild(self) -> None:
         """Compile every PDO from the store (after a reset) and subscribe the RPDOs."""
+        self._window_end = math.inf  # 0x1007 back to its default: no window until the next SYNC
         for pdo in self._by_index.values():
             self._compile(pdo)
         self._refresh()
@@ -373,10 +382,18 @@ class PdoEngine:
             pdo.length_error = False
             self.rpdo_received += 1
             if pdo.synchronous:
+                if timestamp > self._window_end:
+                    self.rpdo_late += 1
+                    return
                 pdo.latched = bytes(data)
             else:
                 self._write_many(self._decode(pdo, data))
                 self.poll_events()
+
+    def open_window(self, timestamp: float) -> None:
+        """At SYNC (received at ``timestamp``): the synchronous window of 0x1007 starts."""
+        window = self._store.values.get(key(SYNC_WINDOW, 0), 0)
+        self._window_end = timestamp + window * 1e-6 if window else math.inf
 
     def apply_latched(self) -> None:
         """At SYNC: the latched data of the RPDOs due, all stored before any reacts."""

@@ -529,6 +529,7 @@ class SimulatedSlave(CommFaultInjection):
             operational = self._nmt is NmtState.OPERATIONAL
             if operational:
                 self.pdo.apply_latched()
+            self.pdo.open_window(timestamp)
             self._model_step(min(max(dt, 0.0), MAX_STEP), True)
             if operational:
                 self.pdo.transmit_on_sync(data[0] if len(data) else None)
