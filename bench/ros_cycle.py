@@ -8,7 +8,8 @@ with the same PDO maps, is what the canopen and rclpy documentation lead to: can
 ``network.sync.start`` (python-can's thread task), ``RemoteNode`` TPDO callbacks decoding
 with ``PdoVariable.raw``, and an rclpy timer at the SYNC period that writes the set-points
 (the same motion, computed in place: it has no trajectory handling to pay for) and
-publishes the joint states. The core variant (bench/ros_cycle_core.py), also in the same
+publishes the joint states. The rt variant is the bridge with ``master.realtime_priority``
+(SCHED_FIFO for its cycle and CAN receive threads), as the README tells users on a robot. The core variant (bench/ros_cycle_core.py), also in the same
 run, is the bridge's core alone in the bridge process, without rclpy: Master and
 TrajectoryExecutor streaming the same motion and reading the joint feedback each cycle,
 publishing nothing (no subscriber): what moving the cycle and the CAN I/O into a process of
@@ -25,7 +26,7 @@ for these figures, meanwhile: a bare sleep loop on the period grid in a process 
 the bridge's skip rule (interval p99 between its wake-ups, as the SYNC p99, and skipped share).
 
     .venv/bin/python -m bench ros_cycle [--quick] [--axes 1 2 4 6 8] [--periods 1 2 4 10] [--seconds 10]
-        [--variants bridge naive core] [--maps default|compact]
+        [--variants bridge rt naive core] [--maps default|compact]
 """
 from __future__ import annotations
 
@@ -58,7 +59,8 @@ TRAJECTORY_MARGIN = 15.0  # s of trajectory beyond warm-up and window: start-up,
 # maps (target position + velocity), RPDO 1 of the compact maps (controlword + target position)
 RPDO_SETPOINT = {'default': 0x300, 'compact': 0x200}
 MAPS = tuple(RPDO_SETPOINT)
-VARIANTS = ('bridge', 'naive', 'core')
+VARIANTS = ('bridge', 'rt', 'naive', 'core')
+REALTIME_PRIORITY = 50  # the rt variant: the bridge with master.realtime_priority (SCHED_FIFO)
 
 
 def _entries(*indices: int) -> list[dict[str, int]]:
@@ -95,11 +97,13 @@ def trajectory_points(starts: list[float], seconds: float) -> list[tuple[float, 
             for n in range(1, math.ceil(total / step) + 1)]
 
 
-def bus_data(axes: int, period_ms: float, channel: str, maps: str = 'default') -> dict[str, Any]:
+def bus_data(axes: int, period_ms: float, channel: str, maps: str = 'default',
+             realtime: bool = False) -> dict[str, Any]:
     pdos = COMPACT_PDOS if maps == 'compact' else {}
     return {
         'bus': {'interface': 'local', 'channel': channel, 'bitrate': 1_000_000, 'allow_overload': True},
-        'master': {'node_id': 127, 'sync_period': round(period_ms * 1000), 'heartbeat_producer': 100},
+        'master': {'node_id': 127, 'sync_period': round(period_ms * 1000), 'heartbeat_producer': 100,
+                   **({'realtime_priority': REALTIME_PRIORITY} if realtime else {})},
         'nodes': {f'drive{i}': {'node_id': i, 'family': 'generic_402', 'heartbeat_producer': 100, **pdos,
                                 'axes': [{'joint': f'j{i}', 'mode': 'csp',
                                           'scaling': {'counts_per_revolution': 65536, 'rated_torque': 1.0},
@@ -159,7 +163,7 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
     window = Window()
     ready = threading.Event()
     rclpy.init(args=['bench_bridge', '--ros-args', '-p', 'auto_enable:=true'])
-    if variant == 'bridge':
+    if variant in ('bridge', 'rt'):
         from drive_bridge.cia402.statemachine import State
         from drive_bridge.ros.node import BusNode
         node: Any = BusNode(config_path)
@@ -190,7 +194,7 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
     control.join()
     sync_stats = None
     streaming = None
-    if variant == 'bridge':
+    if variant in ('bridge', 'rt'):
         streaming = [h.state for h in node.trajectories.active()]
         if node.master.sync is not None:
             s = node.master.sync.stats()
@@ -404,7 +408,7 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
              maps: str = 'default') -> dict:
     channel = f'b{uuid.uuid4().hex[:6]}'
     config = work / f'{channel}.yaml'
-    config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps)))
+    config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps, realtime=variant == 'rt')))
     me = [sys.executable, '-m', 'bench.ros_cycle']
     log = work / f'{channel}.log'
     sim = _popen([str(TOOL), 'sim', str(config)], env, log)
@@ -418,7 +422,7 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         sub = None
         if variant != 'core':  # the core variant publishes nothing: no subscriber
             sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--seconds', str(seconds),
-                          '--out', str(work / f'{channel}.sub.json')] + (['--stream'] if variant == 'bridge' else []),
+                          '--out', str(work / f'{channel}.sub.json')] + (['--stream'] if variant in ('bridge', 'rt') else []),
                          env, log)
             processes.append(sub)
         _expect(bridge, 'ready', f'{variant} bridge', 90)
@@ -527,11 +531,11 @@ def row(axes: int, period_ms: float, load: float, variant: str, r: dict) -> str:
             f'{r["cpu"]:5.0%} {_ms(r["idle_p99"], 8)} {r["idle_skip"]:9.1%}')
 
 
-def ratio_row(bridge: dict, naive: dict, period: float) -> str:
-    """naive / bridge under the figure's column (jitter = |SYNC p99 - period|, late = 1 - on time)."""
+def ratio_row(bridge: dict, naive: dict, period: float, label: str = 'bridge') -> str:
+    """naive / bridge (or rt) under the figure's column (jitter = |SYNC p99 - period|, late = 1 - on time)."""
     jitter = lambda r: abs(r['sync_p99'] - period)  # noqa: E731
     late = lambda r: 1 - r['on_time']  # noqa: E731
-    return (f'{"":14} {"ratio":6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>6} {"":6} '
+    return (f'{"":14} {"ratio" if label == "bridge" else "ratioR":6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>6} {"":6} '
             f'{_ratio(naive["skipped"], bridge["skipped"]):>13} {_ratio(late(naive), late(bridge)):>7} {"":5} '
             f'{"":6} {_ratio(naive["js_p99"], bridge["js_p99"]):>6} {_ratio(naive["cpu"], bridge["cpu"]):>5}')
 
@@ -574,7 +578,9 @@ def main(argv: list[str]) -> None:
               "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
               "core = Master + TrajectoryExecutor alone, no rclpy (no subscriber: js '-'); "
               "idle p99/skip = a bare sleep loop on the grid in another process meanwhile: its interval p99 "
-              "and skipped share (the machine's floor); ratio = naive/bridge; '!' = over 70 % of 1 Mbit/s")
+              "and skipped share (the machine's floor); rt = the bridge with master.realtime_priority "
+              f"{REALTIME_PRIORITY} (SCHED_FIFO); ratio = naive/bridge, ratioR = naive/rt; "
+              "'!' = over 70 % of 1 Mbit/s")
         print(HEADER)
         for period_ms in args.periods:
             for axes in args.axes:
@@ -586,8 +592,9 @@ def main(argv: list[str]) -> None:
                         print(row(axes, period_ms, budget.load or 0.0, variant, results[variant]), flush=True)
                     except Exception as exc:
                         print(f'{axes:4d} {period_ms:3g} {variant:6} could not run: {exc}', flush=True)
-                if 'bridge' in results and 'naive' in results:
-                    print(ratio_row(results['bridge'], results['naive'], period_ms / 1000), flush=True)
+                for ours in ('bridge', 'rt'):
+                    if ours in results and 'naive' in results:
+                        print(ratio_row(results[ours], results['naive'], period_ms / 1000, ours), flush=True)
 
 
 if __name__ == '__main__':

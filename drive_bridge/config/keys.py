@@ -6,7 +6,7 @@ TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation', 'access', 
 BUS = ('interface', 'channel', 'bitrate', 'options', 'allow_overload')
 OPTIONS = ('dcf_path', 'heartbeat_multiplier')
 MASTER = ('node_id', 'sync_period', 'sync_producer', 'heartbeat_producer', 'heartbeat_consumer',
-          'heartbeat_multiplier', 'baudrate', 'sync_window')
+          'heartbeat_multiplier', 'baudrate', 'sync_window', 'realtime_priority')
 SIMULATION = ('enabled', 'nodes')
 RECORD = ('path', 'split_size_mb', 'split_seconds', 'start')
 

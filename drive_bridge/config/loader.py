@@ -55,7 +55,9 @@ def _master(sec: Section | None, multiplier: float | None) -> tuple[MasterConfig
         heartbeat_producer_ms=sec.get_int('heartbeat_producer', base.heartbeat_producer_ms, lo=0, hi=0xFFFF) or 0,
         heartbeat_consumer=sec.get_bool('heartbeat_consumer', base.heartbeat_consumer),
         heartbeat_multiplier=sec.get_number('heartbeat_multiplier', fallback, ge=1) or fallback,
-        sync_window=_sync_window(sec))
+        sync_window=_sync_window(sec),
+        realtime_priority=(sec.get_int('realtime_priority', None, lo=1, hi=99)
+                           if sec.get('realtime_priority') is not None else None))
     problem = sync_window_problem(master)
     if problem:
         sec.issues.error(sec.loc('sync_window'), problem)

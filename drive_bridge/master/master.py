@@ -35,6 +35,7 @@ from drive_bridge.master.flood import UnknownFrames
 from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
+from drive_bridge.master.realtime import RealtimeReceive, make_realtime
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
 from drive_bridge.model import BusConfig
@@ -77,6 +78,9 @@ class Master:
         self.network = canopen.Network()
         self.unknown_frames = UnknownFrames(self.network.subscribers)  # counted, reported by the supervisor
         self.tap.add_listener(self.unknown_frames)
+        priority = config.master.realtime_priority
+        if priority is not None:  # before the bus opens: the receive thread's first frame sets it
+            self.tap.add_listener(RealtimeReceive(priority, functools.partial(self._realtime_refused, 'CAN receive')))
         self.nodes: dict[str, NodeRuntime] = {}
         self.axes: dict[str, JointDriver] = {}
         self._by_id: dict[int, NodeRuntime] = {}
@@ -212,11 +216,28 @@ class Master:
         period = master.sync_period if master.sync_period > 0 else UPDATE_PERIOD_WITHOUT_SYNC
         self.sync = SyncProducer(self.network.send_message, period, send_sync=master.sync_period > 0,
                                  on_error=on_error, feedback=self.feedback.wait if master.sync_period > 0 else None,
-                                 sync_window=master.sync_window if master.sync_period > 0 else None)
+                                 sync_window=master.sync_window if master.sync_period > 0 else None,
+                                 on_start=self._realtime_cycle if master.realtime_priority is not None else None)
         self.sync.add_at_sync(self.feedback.arm)
         self.sync.add_before_sync(self._before_sync)
         self.sync.add_after_sync(self._after_sync)
         self.sync.start()
+
+    def _realtime_cycle(self) -> None:
+        """In the cycle thread, before its first SYNC: SCHED_FIFO at master.realtime_priority."""
+        priority = self.config.master.realtime_priority
+        assert priority is not None
+        problem = make_realtime(priority)
+        if problem is not None:
+            self._realtime_refused('cycle', problem)
+        else:
+            self._emit(EventKind.CONFIGURED, Level.INFO,
+                       f'cycle thread runs SCHED_FIFO at priority {priority} (master.realtime_priority)')
+
+    def _realtime_refused(self, thread: str, problem: str) -> None:
+        self._emit(EventKind.CONFIGURED, Level.WARN,
+                   f'master.realtime_priority {self.config.master.realtime_priority}: SCHED_FIFO refused for the '
+                   f'{thread} thread ({problem}); it runs at normal priority')
 
     def _on_external_sync(self, _can_id: int, _data: bytearray, _timestamp: float) -> None:
         """Another node (or the kernel) produced SYNC: send the RPDOs for the next one right away."""

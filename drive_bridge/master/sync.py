@@ -65,7 +65,8 @@ class SyncProducer:
     def __init__(self, send: Callable[[int, bytes], None], period: float, *,
                  send_sync: bool = True, window: int = 2000,
                  on_error: Callable[[str], None] | None = None,
-                 feedback: FeedbackWait | None = None, sync_window: float | None = None) -> None:
+                 feedback: FeedbackWait | None = None, sync_window: float | None = None,
+                 on_start: Callable[[], None] | None = None) -> None:
         if period <= 0:
             raise ValueError(f'SYNC period must be > 0 s, got {period}')
         self.period = period
@@ -73,6 +74,7 @@ class SyncProducer:
         self._send = send
         self._on_error = on_error
         self._feedback = feedback
+        self._on_start = on_start  # called in the cycle thread before its first SYNC
         self.sync_window = sync_window or 0.0  # s after SYNC; 0 = no window
         self._feedback_window = min(FEEDBACK_WINDOW * period, self.sync_window / 2 or math.inf)
         self._at_sync: list[CycleHook] = []
@@ -153,6 +155,8 @@ class SyncProducer:
             self._prepared = time.perf_counter()
 
     def _run(self) -> None:
+        if self._on_start is not None:
+            self._on_start()
         period = self.period
         deadline = time.perf_counter() + period
         previous = 0.0
