@@ -9,7 +9,8 @@ with the same PDO maps, is what the canopen and rclpy documentation lead to: can
 with ``PdoVariable.raw``, and an rclpy timer at the SYNC period that writes the set-points
 (the same motion, computed in place: it has no trajectory handling to pay for) and
 publishes the joint states. The rt variant is the bridge with ``master.realtime_priority``
-(SCHED_FIFO for its cycle and CAN receive threads), as the README tells users on a robot. The core variant (bench/ros_cycle_core.py), also in the same
+(SCHED_FIFO for its cycle and CAN receive threads), as the README tells users on a robot.
+The core variant (bench/ros_cycle_core.py), also in the same
 run, is the bridge's core alone in the bridge process, without rclpy: Master and
 TrajectoryExecutor streaming the same motion and reading the joint feedback each cycle,
 publishing nothing (no subscriber): what moving the cycle and the CAN I/O into a process of
@@ -421,9 +422,9 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         processes.append(bridge)
         sub = None
         if variant != 'core':  # the core variant publishes nothing: no subscriber
+            stream = ['--stream'] if variant in ('bridge', 'rt') else []
             sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--seconds', str(seconds),
-                          '--out', str(work / f'{channel}.sub.json')] + (['--stream'] if variant in ('bridge', 'rt') else []),
-                         env, log)
+                          '--out', str(work / f'{channel}.sub.json'), *stream], env, log)
             processes.append(sub)
         _expect(bridge, 'ready', f'{variant} bridge', 90)
         if sub is not None:
@@ -535,7 +536,8 @@ def ratio_row(bridge: dict, naive: dict, period: float, label: str = 'bridge') -
     """naive / bridge (or rt) under the figure's column (jitter = |SYNC p99 - period|, late = 1 - on time)."""
     jitter = lambda r: abs(r['sync_p99'] - period)  # noqa: E731
     late = lambda r: 1 - r['on_time']  # noqa: E731
-    return (f'{"":14} {"ratio" if label == "bridge" else "ratioR":6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>6} {"":6} '
+    name = 'ratio' if label == 'bridge' else 'ratioR'
+    return (f'{"":14} {name:6} {"":8} {_ratio(jitter(naive), jitter(bridge)):>6} {"":6} '
             f'{_ratio(naive["skipped"], bridge["skipped"]):>13} {_ratio(late(naive), late(bridge)):>7} {"":5} '
             f'{"":6} {_ratio(naive["js_p99"], bridge["js_p99"]):>6} {_ratio(naive["cpu"], bridge["cpu"]):>5}')
 
