@@ -240,7 +240,7 @@ class MasterConfig:
     heartbeat_consumer: bool = True  # master monitors the nodes' heartbeats
     heartbeat_multiplier: float = 3.0  # consumer time = producer time * multiplier
     sync_window: float | None = None  # s, written to 0x1007 of every node that has it; None = not written
-    realtime_priority: int | None = None  # SCHED_FIFO priority of the cycle and CAN receive threads; None = normal
+    realtime_priority: int | None = None  # SCHED_FIFO priority of the cycle thread; None = normal
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,9 @@
-"""master.realtime_priority: the cycle thread and the CAN receive thread run SCHED_FIFO (or the
-master says once why not and runs on); bad values are refused naming the key."""
+"""master.realtime_priority: the cycle thread runs SCHED_FIFO with a 0.5 ms GIL switch interval
+while it runs (or the master says once why not and runs on); bad values are refused naming the key."""
 from __future__ import annotations
 
 import os
+import sys
 import threading
 
 import pytest
@@ -45,26 +46,28 @@ def test_absent_or_null_is_normal_scheduling() -> None:
     assert config_from(data).master.realtime_priority is None
 
 
-def test_cycle_and_receive_threads_run_sched_fifo_or_the_master_says_why_not() -> None:
+def test_the_cycle_thread_runs_sched_fifo_or_the_master_says_why_not() -> None:
     data = demo_data()
     data['master']['realtime_priority'] = 10
     permitted = _permitted()
+    before = sys.getswitchinterval()
     with running(config_from(data)) as (master, _sim):
         assert master.sync is not None
         eventually(lambda: master.sync.stats().cycles > 20, 3.0, '20 cycles')  # type: ignore[union-attr]
         configured = [e for e in master.events if e.kind is EventKind.CONFIGURED and 'SCHED_FIFO' in e.message]
+        assert sys.getswitchinterval() == pytest.approx(min(before, 0.0005))
         if permitted:
             assert _policy_of('drive_bridge-sync') == [os.SCHED_FIFO]
-            # the master's receive thread (its bus is the tapped one), not the simulated drives'
-            assert os.SCHED_FIFO in [thread_policy(t.native_id) for t in threading.enumerate()
-                                     if 'Notifier' in t.name and 'tapped' in t.name and t.native_id]
             assert [e.level for e in configured] == [Level.INFO], configured
             assert 'priority 10' in configured[0].message
         else:
-            assert configured and all(e.level is Level.WARN for e in configured), configured
-            assert 'master.realtime_priority 10: SCHED_FIFO refused' in configured[0].message
-        # the SDO worker and supervisor threads keep normal priority
+            assert [e.level for e in configured] == [Level.WARN], configured
+            assert 'master.realtime_priority 10: SCHED_FIFO refused for the cycle thread' in configured[0].message
+        # the CAN receive, SDO worker and supervisor threads keep normal priority
         assert set(_policy_of('drive_bridge-supervisor')) == {os.SCHED_OTHER}
+        assert {thread_policy(t.native_id) for t in threading.enumerate()
+                if 'Notifier' in t.name and t.native_id} == {os.SCHED_OTHER}
+    assert sys.getswitchinterval() == pytest.approx(before)  # the process's setting is given back
 
 
 def test_without_the_key_every_thread_keeps_normal_priority() -> None:

@@ -35,7 +35,7 @@ from drive_bridge.master.flood import UnknownFrames
 from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
-from drive_bridge.master.realtime import RealtimeReceive, make_realtime
+from drive_bridge.master.realtime import SwitchInterval, make_realtime
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
 from drive_bridge.model import BusConfig
@@ -78,9 +78,7 @@ class Master:
         self.network = canopen.Network()
         self.unknown_frames = UnknownFrames(self.network.subscribers)  # counted, reported by the supervisor
         self.tap.add_listener(self.unknown_frames)
-        priority = config.master.realtime_priority
-        if priority is not None:  # before the bus opens: the receive thread's first frame sets it
-            self.tap.add_listener(RealtimeReceive(priority, functools.partial(self._realtime_refused, 'CAN receive')))
+        self._switch_interval = SwitchInterval()
         self.nodes: dict[str, NodeRuntime] = {}
         self.axes: dict[str, JointDriver] = {}
         self._by_id: dict[int, NodeRuntime] = {}
@@ -227,17 +225,15 @@ class Master:
         """In the cycle thread, before its first SYNC: SCHED_FIFO at master.realtime_priority."""
         priority = self.config.master.realtime_priority
         assert priority is not None
+        self._switch_interval.lower()
         problem = make_realtime(priority)
         if problem is not None:
-            self._realtime_refused('cycle', problem)
+            self._emit(EventKind.CONFIGURED, Level.WARN,
+                       f'master.realtime_priority {priority}: SCHED_FIFO refused for the cycle thread '
+                       f'({problem}); it runs at normal priority')
         else:
             self._emit(EventKind.CONFIGURED, Level.INFO,
                        f'cycle thread runs SCHED_FIFO at priority {priority} (master.realtime_priority)')
-
-    def _realtime_refused(self, thread: str, problem: str) -> None:
-        self._emit(EventKind.CONFIGURED, Level.WARN,
-                   f'master.realtime_priority {self.config.master.realtime_priority}: SCHED_FIFO refused for the '
-                   f'{thread} thread ({problem}); it runs at normal priority')
 
     def _on_external_sync(self, _can_id: int, _data: bytearray, _timestamp: float) -> None:
         """Another node (or the kernel) produced SYNC: send the RPDOs for the next one right away."""
@@ -259,6 +255,7 @@ class Master:
             thread.join(timeout=5)
         if self.sync is not None:
             self.sync.stop()
+        self._switch_interval.restore()
         if self.kernel_sync is not None:
             self.kernel_sync.stop()
         if self._heartbeat_task is not None:

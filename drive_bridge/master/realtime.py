@@ -1,21 +1,22 @@
-"""SCHED_FIFO for the threads that keep the cycle's timing (``master.realtime_priority``).
+"""SCHED_FIFO for the cycle thread (``master.realtime_priority``).
 
 On a machine whose cores are shared (drives simulated next to the bridge, a planner, a
 subscriber), the cycle thread that wakes for a SYNC deadline waits for a core behind
 ordinary threads; a wait of half a period skips the SYNC. With SCHED_FIFO the kernel runs it
-as soon as it wakes (measured in README "Performance": skipped SYNCs at 4 axes/2 ms fell
-from about 3 % to 0.3 %). The CAN receive thread gets it too, so the drives' TPDOs that the
-cycle waits for are read at once. It is what ros2_control does for its control loop; it
-needs CAP_SYS_NICE or an rtprio limit (``/etc/security/limits.conf``), else the threads run
-at normal priority and the master says so once.
+as soon as it wakes, and a GIL switch interval of 0.5 ms (instead of 5 ms) bounds how long
+another thread of the process may keep the interpreter once the cycle thread asks for it
+(measured in README "Performance"). The CAN receive thread is left at normal priority: made
+SCHED_FIFO too it cost 10 points of CPU and 0.3 ms of `/joint_states` latency, and skipped
+no fewer SYNCs. It is what ros2_control does for its control loop; it needs CAP_SYS_NICE or
+an rtprio limit (``/etc/security/limits.conf``), else the cycle runs at normal priority and
+the master says so once.
 """
 from __future__ import annotations
 
 import os
-import threading
-from collections.abc import Callable
+import sys
 
-import can
+SWITCH_INTERVAL = 0.0005  # s: the GIL switch interval while a real-time cycle runs
 
 
 def make_realtime(priority: int) -> str | None:
@@ -36,25 +37,19 @@ def thread_policy(native_id: int) -> int:
     return os.sched_getscheduler(native_id)
 
 
-class RealtimeReceive(can.Listener):
-    """A frame-tap listener that makes the thread delivering frames SCHED_FIFO, once per
-    thread: the receive thread is python-can's Notifier's, started again when the bus is
-    reopened, so it is found by the frames it delivers rather than by its object."""
+class SwitchInterval:
+    """Lowers the interpreter's GIL switch interval while the real-time cycle runs, and puts
+    back what it found (it is the whole process's setting)."""
 
-    def __init__(self, priority: int, on_failure: Callable[[str], None]) -> None:
-        self.priority = priority
-        self._on_failure = on_failure
-        self._done: set[int] = set()
-        self.failed = False
+    def __init__(self) -> None:
+        self._previous: float | None = None
 
-    def on_message_received(self, msg: can.Message) -> None:
-        if not msg.is_rx:  # frames sent are tapped in the sending thread (cycle, SDO workers)
-            return
-        ident = threading.get_ident()
-        if ident in self._done:
-            return
-        self._done.add(ident)
-        problem = make_realtime(self.priority)
-        if problem is not None and not self.failed:
-            self.failed = True
-            self._on_failure(problem)
+    def lower(self) -> None:
+        if self._previous is None:
+            self._previous = sys.getswitchinterval()
+            sys.setswitchinterval(min(self._previous, SWITCH_INTERVAL))
+
+    def restore(self) -> None:
+        if self._previous is not None:
+            sys.setswitchinterval(self._previous)
+            self._previous = None
