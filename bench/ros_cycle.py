@@ -343,6 +343,7 @@ def subscriber_role(joints: int, out: str, stream: bool, seconds: float) -> None
     threading.Thread(target=executor.spin, daemon=True).start()
     while len(latest) < joints:
         time.sleep(0.05)
+    sys.stdin.readline()  # 'go': the bridge's axes are all enabled (a trajectory before that is refused)
     if stream:  # one trajectory on every axis from where they are, outlasting the window
         names = sorted(latest, key=lambda n: int(n[1:]))
         msg = JointTrajectory(joint_names=names)
@@ -428,6 +429,9 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
             processes.append(sub)
         _expect(bridge, 'ready', f'{variant} bridge', 90)
         if sub is not None:
+            assert sub.stdin is not None
+            sub.stdin.write('go\n')
+            sub.stdin.flush()
             _expect(sub, 'streaming', 'subscriber', 60)
         time.sleep(WARMUP + 0.3)
         assert bridge.stdin is not None
