@@ -33,21 +33,19 @@ def with_sync_period(config: BusConfig, period: float, source: str = 'parameter 
     master = dataclasses.replace(config.master, sync_period=period)
     nodes = config.nodes
     errors: list[Issue] = []
-    problem = sync_window_problem(master, period_key=source.removeprefix('parameter '))
+    period_key = source.removeprefix('parameter ')
+    problem = sync_window_problem(master, period_key=period_key)
     if problem:
         errors.append(Issue(source, 'master.sync_window', problem))
     warning, error = budget_verdict(bus_budget(config.bus.bitrate, master, nodes), config.allow_overload,
-                                    period_key=source.removeprefix('parameter '))
+                                    period_key=period_key)
     if error:
         errors.append(Issue(source, '', f'{period * 1e6:.0f} µs: {error}'))
     if errors:
         raise ConfigError(errors)
     # the file's budget verdict was for its own period: replaced by the one for this period
-    warnings = tuple(w for w in config.warnings if not _budget_warning(w))
+    file_warning, _ = budget_verdict(bus_budget(config.bus.bitrate, config.master, nodes), config.allow_overload)
+    warnings = tuple(w for w in config.warnings if not (file_warning and w.endswith(f': bus: {file_warning}')))
     if warning:
         warnings += (str(Issue(source, '', f'{period * 1e6:.0f} µs: {warning}')),)
     return dataclasses.replace(config, master=master, warnings=warnings)
-
-
-def _budget_warning(text: str) -> bool:
-    return ': bus: bus load ' in text
