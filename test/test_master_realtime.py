@@ -82,3 +82,25 @@ def test_a_priority_the_kernel_refuses_gives_the_reason() -> None:
     probe.start()
     probe.join()
     assert result[0] and 'Invalid argument' in result[0]
+
+
+def test_two_real_time_masters_give_the_switch_interval_back_only_when_both_stopped() -> None:
+    before = sys.getswitchinterval()
+    configs = []
+    for _ in range(2):
+        data = demo_data()
+        data['master']['realtime_priority'] = 10
+        configs.append(config_from(data))
+    first = running(configs[0])
+    master, _sim = first.__enter__()
+    try:
+        eventually(lambda: master.sync.stats().cycles > 5, 3.0, '5 cycles')  # type: ignore[union-attr]
+        with running(configs[1]) as (second, _sim2):
+            eventually(lambda: second.sync.stats().cycles > 5, 3.0, '5 cycles')  # type: ignore[union-attr]
+            first.__exit__(None, None, None)  # the first stops while the second still runs
+            first = None
+            assert sys.getswitchinterval() == pytest.approx(min(before, 0.0005))
+    finally:
+        if first is not None:
+            first.__exit__(None, None, None)
+    assert sys.getswitchinterval() == pytest.approx(before)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 
 SWITCH_INTERVAL = 0.0005  # s: the GIL switch interval while a real-time cycle runs
 
@@ -38,18 +39,32 @@ def thread_policy(native_id: int) -> int:
 
 
 class SwitchInterval:
-    """Lowers the interpreter's GIL switch interval while the real-time cycle runs, and puts
-    back what it found (it is the whole process's setting)."""
+    """Lowers the interpreter's GIL switch interval while a real-time cycle runs, and puts back
+    what it found. It is the whole process's setting, so the masters of one process share it:
+    lowered by the first that asks, given back when the last of them lets go."""
+
+    _lock = threading.Lock()
+    _holders = 0
+    _previous = 0.0
 
     def __init__(self) -> None:
-        self._previous: float | None = None
+        self._held = False
 
     def lower(self) -> None:
-        if self._previous is None:
-            self._previous = sys.getswitchinterval()
-            sys.setswitchinterval(min(self._previous, SWITCH_INTERVAL))
+        with SwitchInterval._lock:
+            if self._held:
+                return
+            self._held = True
+            if SwitchInterval._holders == 0:
+                SwitchInterval._previous = sys.getswitchinterval()
+                sys.setswitchinterval(min(SwitchInterval._previous, SWITCH_INTERVAL))
+            SwitchInterval._holders += 1
 
     def restore(self) -> None:
-        if self._previous is not None:
-            sys.setswitchinterval(self._previous)
-            self._previous = None
+        with SwitchInterval._lock:
+            if not self._held:
+                return
+            self._held = False
+            SwitchInterval._holders -= 1
+            if SwitchInterval._holders == 0:
+                sys.setswitchinterval(SwitchInterval._previous)
