@@ -2,7 +2,11 @@
 and JointState (topic_based_ros2_control).
 
 A message is checked whole before anything is applied: one bad joint refuses the whole
-message, with the reason logged and published on ``~/command_errors``.
+message, with the reason logged and published on ``~/command_errors``. The structure (joint
+names, counts, numbers) is checked here; the bus process checks each joint's command against
+its mode, state and limits and refuses the whole message there (reported back the same way).
+Direct commands cross latest-value-wins, at most once per cycle per topic and joint set
+(:mod:`drive_bridge.busproc.commands`): a flood of them never floods the bus process.
 """
 from __future__ import annotations
 
@@ -16,9 +20,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.executor import ExecutorProxy
+from drive_bridge.busproc.intents import JointCommand
+from drive_bridge.errors import DriveBridgeError, RequestRefused
 from drive_bridge.joint import JointError
-from drive_bridge.master.master import Master
+from drive_bridge.joint.limits import limit_problem
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.message_limits import (
     MalformedMessage,
@@ -26,7 +33,6 @@ from drive_bridge.ros.message_limits import (
     check_trajectory_bytes,
 )
 from drive_bridge.ros.parameters import BridgeParameters
-from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
@@ -39,7 +45,7 @@ class CommandRefused(DriveBridgeError, ValueError):
 class CommandTopics:
     """Subscriptions for commands; they act only while ``active``."""
 
-    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor,
+    def __init__(self, node: Node, master: BusClient, executor: ExecutorProxy,
                  params: BridgeParameters) -> None:
         self.node = node
         self.master = master
@@ -59,6 +65,7 @@ class CommandTopics:
         unknown = [j for j in self.command_joints if j not in master.axes]
         if unknown:
             raise ValueError(f'parameter command_joints names unknown joint(s) {", ".join(unknown)}')
+        master.add_refusal_listener(self.refuse)
 
     def refuse(self, topic: str, reason: str) -> None:
         text = f'{topic}: refused: {reason}'
@@ -69,6 +76,9 @@ class CommandTopics:
             self.node.get_logger().warning(text)
 
     def _inactive(self, topic: str) -> bool:
+        if self.master.lost:
+            self.refuse(topic, self.master.lost)
+            return True
         if not self.active:
             self.refuse(topic, 'the bridge is not active (deactivated or not configured)')
         return not self.active
@@ -87,28 +97,43 @@ class CommandTopics:
         except Exception as exc:  # the middleware's own error for bytes it cannot read
             self.refuse(topic, str(MalformedMessage(f'not a trajectory_msgs/JointTrajectory: {exc}')))
             return
-        try:
-            handle = self.executor.submit(trajectory_from_msg(msg), topic)
-        except TrajectoryError as exc:
-            self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
+        joints = list(msg.joint_names)
+        unknown = [j for j in joints if j not in self.master.axes]
+        if unknown:  # before the bus process spends any time on it
+            self.refuse(topic, f'unknown joint(s) {", ".join(unknown)}; this bus has {", ".join(self.master.axes)}')
             return
+        points = len(msg.points)
+        future = self.executor.submit_async(trajectory_from_msg(msg), topic)
+        future.add_done_callback(lambda done: self._submitted(topic, points, done))
+
+    def _submitted(self, topic: str, points: int, future) -> None:
+        """The bus process's answer to a trajectory (its request-lane thread)."""
+        error = future.exception()
+        if isinstance(error, (TrajectoryError, RequestRefused, TimeoutError)):
+            self.refuse(topic, str(error).removeprefix(f'{topic}: '))
+            return
+        if error is not None:
+            self.refuse(topic, f'{type(error).__name__}: {error}')
+            return
+        handle = future.result()
         if handle is not None:
             self.node.get_logger().info(
-                f'trajectory {handle.id}: {len(msg.points)} point(s) for {", ".join(handle.joints)}, '
+                f'trajectory {handle.id}: {points} point(s) for {", ".join(handle.joints)}, '
                 f'{handle.end - handle.start:.3f} s')
 
     # -- direct commands -------------------------------------------------------------------------
     def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:
-        """Check every joint's command, then apply all (or none)."""
+        """Check every joint's command against its limits, then send all (or none); the bus
+        process checks them again against each joint's mode and state."""
         try:
             for joint, command in commands.items():
-                self.master.axes[joint].check_command(**command)
+                problem = limit_problem(self.master.axes[joint].config.limits, **command)
+                if problem:
+                    raise JointError(f'joint {joint}: {problem}')
         except JointError as exc:
             self.refuse(topic, str(exc))
             return
-        self.executor.stop(list(commands), f'replaced by a command on {topic}')
-        for joint, command in commands.items():
-            self.master.axes[joint].command(**command)
+        self.master.commands.submit(topic, tuple(JointCommand(joint, **command) for joint, command in commands.items()))
 
     def on_commands(self, msg: Float64MultiArray) -> None:
         topic = '~/commands'

@@ -22,7 +22,7 @@ def _ms(value: float) -> str:
     return f'{value * 1000:.2f} ms'
 
 
-def bus_status(snapshot: BusSnapshot, node_name: str) -> DiagnosticStatus:
+def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '') -> DiagnosticStatus:
     status = DiagnosticStatus(name=f'{PREFIX}: bus {snapshot.channel}', hardware_id=f'can {snapshot.channel}')
     traffic = snapshot.traffic
     values = dict(node=node_name, bus_state=snapshot.bus_state, rx_frames=traffic.rx_frames,
@@ -42,7 +42,11 @@ def bus_status(snapshot: BusSnapshot, node_name: str) -> DiagnosticStatus:
                       cycle_errors=sync.hook_errors, late_setpoints=sync.late_setpoints)
         if sync.jitter_max > sync.period:
             status.level, status.message = WARN, f'SYNC jitter up to {_ms(sync.jitter_max)}'
-    if snapshot.bus_state not in ('ACTIVE', 'CLOSED'):
+    if lost:
+        status.level, status.message = ERROR, lost
+    elif snapshot.bus_state == 'STARTING':
+        status.level, status.message = WARN, 'bus process starting'
+    elif snapshot.bus_state not in ('ACTIVE', 'CLOSED'):
         status.level, status.message = ERROR, f'CAN controller {snapshot.bus_state}'
     status.values = _values(**values)
     return status
@@ -95,8 +99,9 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     return status
 
 
-def diagnostics(snapshot: BusSnapshot, node_name: str) -> DiagnosticArray:
+def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '') -> DiagnosticArray:
+    """``lost``: why the bus process is gone ('' while it runs)."""
     array = DiagnosticArray()
-    array.status = [bus_status(snapshot, node_name), *(node_status(n) for n in snapshot.nodes),
+    array.status = [bus_status(snapshot, node_name, lost), *(node_status(n) for n in snapshot.nodes),
                     *(axis_status(a) for a in snapshot.axes)]
     return array

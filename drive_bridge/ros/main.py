@@ -1,4 +1,5 @@
-"""Spinning a bus node (plain or lifecycle) until Ctrl-C: what the console entry points run."""
+"""Spinning a bus node (plain or lifecycle) until Ctrl-C, or until its bus process is lost:
+what the console entry points run."""
 from __future__ import annotations
 
 import gc
@@ -10,9 +11,12 @@ from drive_bridge.ros.bridge import StartupError
 from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 
+EXIT_BUS_LOST = 3  # the bus process ended without being asked (killed, crashed)
+
 
 def run(config_path: str, args: list[str], managed: bool = False) -> int:
-    """Spin a bus node (or its lifecycle variant) until Ctrl-C; returns the exit code."""
+    """Spin a bus node (or its lifecycle variant) until Ctrl-C (exit 0) or until its bus
+    process is lost (exit 3); a node that cannot start exits 2."""
     rclpy.init(args=args)
     try:
         node: BusNode | BusLifecycleNode = BusLifecycleNode(config_path) if managed else BusNode(config_path)
@@ -20,14 +24,19 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
         rclpy.logging.get_logger('drive_bridge').fatal(str(exc))
         rclpy.try_shutdown()
         return 2
-    # Start-up objects never become garbage: keep full collections from walking them, which
-    # would stall the SYNC cycle thread (the GIL is held while the collector runs).
+    # Start-up objects never become garbage: keep full collections from walking them.
     gc.collect()
     gc.freeze()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    code = 0
     try:
-        executor.spin()
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+            bridge = node.bridge
+            if bridge is not None and bridge.bus_lost.is_set():
+                code = EXIT_BUS_LOST
+                break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
@@ -35,4 +44,4 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return code

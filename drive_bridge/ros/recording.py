@@ -26,7 +26,7 @@ from std_srvs.srv import SetBool
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.recorder import Recorder, RecorderStats, config_files
 from drive_bridge.master.events import BusEvent, Level
-from drive_bridge.master.master import Master
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.model import BusConfig, RecordConfig
 from drive_bridge.ros.diagnostics import PREFIX, _values
 
@@ -98,7 +98,7 @@ def stamp_ns(msg: Any) -> int:
 class RecordControl:
     """Starts and stops the recorder of one bus node."""
 
-    def __init__(self, node: Node, master: Master, config: BusConfig, config_text: str | None) -> None:
+    def __init__(self, node: Node, master: BusClient, config: BusConfig, config_text: str | None) -> None:
         self.node = node
         self.master = master
         self.config = config
@@ -159,7 +159,7 @@ class RecordControl:
         recorder = self.recorder
         if recorder is None:
             raise BagError('not recording')
-        self.master.tap.remove_listener(self._listener)
+        self.master.remove_frame_listener(self._listener)
         self.recorder = self._listener = None
         self.last = stats = recorder.stop()
         self.node.get_logger().info(f'recording stopped: {stats.summary()}')
