@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from drive_bridge.busproc.intents import CHUNK_POINTS, Query, Stop, TrajectoryChunk
 from drive_bridge.busproc.proxies import HandleProxy
-from drive_bridge.busproc.reports import HandleState
+from drive_bridge.busproc.reports import FeederState, HandleState
 from drive_bridge.streaming.trajectory import JointSample, Trajectory
 
 if TYPE_CHECKING:
@@ -69,6 +69,12 @@ class ExecutorProxy:
         assert isinstance(samples, dict)
         sample = samples.get(joint)
         return sample if isinstance(sample, JointSample) else None
+
+    def feeder(self, joint: str) -> FeederState | None:
+        """The PVT feeder of a joint as it is now in the bus process (a test query)."""
+        feeders = self.client.call(Query('feeders', (joint,)), 5.0)
+        assert isinstance(feeders, dict)
+        return feeders.get(joint)
 
     def active(self) -> list[HandleProxy]:
         with self._lock:

@@ -2,6 +2,7 @@
 as the ROS layer called it when both ran in one process."""
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -18,7 +19,7 @@ from drive_bridge.busproc.intents import (
     TrajectoryChunk,
 )
 from drive_bridge.busproc.outbox import axis_states
-from drive_bridge.busproc.reports import CommandRefused
+from drive_bridge.busproc.reports import CommandRefused, FeederState
 from drive_bridge.joint import JointError
 from drive_bridge.master.master import Master
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
@@ -70,6 +71,13 @@ class Handlers:
             return tuple(self.master.events)
         if body.what == 'desired':
             return {joint: self.executor.desired(joint, body.at) for joint in body.joints if joint in self.master.axes}
+        if body.what == 'stop_deceleration':
+            return {joint: self.master.axes[joint].stop_deceleration() for joint in body.joints
+                    if joint in self.master.axes}
+        if body.what == 'feeders':
+            feeders = {joint: self.executor.feeder(joint) for joint in body.joints}
+            return {joint: FeederState(dataclasses.replace(f.stats), f.ended, f.horizon)
+                    for joint, f in feeders.items() if f is not None}
         raise ValueError(f'unknown query {body.what!r}')
 
     def add_chunk(self, chunk: TrajectoryChunk) -> Trajectory | None:

@@ -142,14 +142,16 @@ class ParameterCall:
     slot: int | None = None
 
 
-QueryName = Literal['snapshot', 'desired', 'operational', 'events']
+QueryName = Literal['snapshot', 'desired', 'operational', 'events', 'feeders', 'stop_deceleration']
 
 
 @dataclass(frozen=True)
 class Query:
     """Answered from the bus process's state: ``snapshot`` (a BusSnapshot), ``desired``
     (each joint's desired JointSample at ``at``), ``operational`` (waits up to ``timeout``
-    until the nodes are operational), ``events`` (the recent BusEvents)."""
+    until the nodes named in ``joints`` are operational, all when empty), ``events`` (the
+    recent BusEvents), ``stop_deceleration`` (each joint's, SI). The test query ``feeders``:
+    each PVT joint's feeder (``reports.FeederState``)."""
 
     what: QueryName
     joints: tuple[str, ...] = ()

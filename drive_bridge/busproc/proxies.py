@@ -15,7 +15,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from drive_bridge.busproc.cyclic import Feedback
-from drive_bridge.busproc.intents import AxisIntent, AxisIntentName, ParameterCall, Stop
+from drive_bridge.busproc.intents import AxisIntent, AxisIntentName, ParameterCall, Query, Stop
 from drive_bridge.busproc.reports import HandleState
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.statemachine import State
@@ -125,6 +125,12 @@ class AxisProxy:
 
     def command_field(self) -> str | None:
         return self._command_field
+
+    def stop_deceleration(self) -> float:
+        """SI deceleration of a controlled stop (asks the bus process: it may read the drive)."""
+        values = self.client.call(Query('stop_deceleration', (self.joint,)), 10.0)
+        assert isinstance(values, dict)
+        return float(values[self.joint])
 
     def stream_strategy(self) -> str | None:
         return self._strategy

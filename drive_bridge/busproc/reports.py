@@ -15,6 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from drive_bridge.joint.snapshot import AxisSnapshot
+from drive_bridge.streaming.pvt import PvtStats
 
 FRAMES_PER_BATCH = 2000  # frames per Frames message (~42 kB)
 _FRAME = struct.Struct('<dIBB8s')  # timestamp, arbitration id, flags, dlc, data (a CAN FD frame: its first 8)
@@ -90,6 +91,16 @@ class HandleState:
     end: float
     state: str
     reason: str = ''
+
+
+@dataclass(frozen=True)
+class FeederState:
+    """A PVT joint's feeder, for tests and diagnosis: its counts, whether its motion was closed
+    (the time-0 point sent), and the stream time up to which points are committed."""
+
+    stats: PvtStats
+    ended: bool
+    horizon: float | None
 
 
 @dataclass(frozen=True)

@@ -59,6 +59,7 @@ class Bridge:
         self.config = config
         self._held: set[str] = set()  # joints halted by deactivation (resumed by activation)
         self.bus_lost = threading.Event()  # the bus process is gone: the node exits (ros/main.py)
+        self._closed = False
         for warning in config.warnings:
             node.get_logger().warning(f'configuration: {warning}')
         existing = _entities(node)
@@ -162,7 +163,11 @@ class Bridge:
                                     + (f'; failed {", ".join(failed)}' if failed else ''))
 
     def close(self) -> None:
-        """Stop motion safely and end the bus process (it releases the bus and the simulated drives)."""
+        """Stop motion safely and end the bus process (it releases the bus and the simulated
+        drives). Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
         self.state_topics.active = self.command_topics.active = False
         if not self.master.lost:
             try:

@@ -78,3 +78,8 @@ class BusLifecycleNode(LifecycleNode):
 
     def close(self) -> None:
         self._release()
+
+    def destroy_node(self) -> None:
+        """Destroying the node ends its bus process too (stopping the axes first)."""
+        self._release()
+        super().destroy_node()

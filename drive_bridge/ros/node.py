@@ -36,3 +36,8 @@ class BusNode(Node):
 
     def close(self) -> None:
         self.bridge.close()
+
+    def destroy_node(self) -> None:
+        """Destroying the node ends its bus process too (stopping the axes first)."""
+        self.bridge.close()
+        super().destroy_node()
