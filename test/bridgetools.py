@@ -1,10 +1,11 @@
 """Tests of the ROS node with simulated drives the test can inspect.
 
 The node starts its bus process (the Master, the cycle) as a child; simulated drives inside
-that process cannot be seen from the test. :func:`start_bridge` therefore runs the
-configuration's simulated drives in the test's own process, on a ``local`` bus (Unix datagram
+that process cannot be seen from the test. :func:`start_bridge` (:func:`bridge_with_sim`)
+therefore runs the configuration's simulated drives in the test's own process, on a ``local`` bus (Unix datagram
 sockets) that the bus process opens too: the bridge reaches them only through CAN frames, and
-``node.simulation`` is the test's :class:`~drive_bridge.sim.SimulatedBus`.
+``node.simulation`` is the test's :class:`~drive_bridge.sim.SimulatedBus`. A test that
+injects or records raw frames joins that bus (:func:`sniffing`).
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from typing import Any
 import yaml
 from rclpy.parameter import Parameter
 
+from akdtools import Sniffer
 from bustools import config_from, unique_channel
 from drive_bridge.master.bus import open_bus
 from drive_bridge.master.node import NodeSnapshot
@@ -53,11 +55,10 @@ def bridge_config(data: dict[str, Any]) -> str:
     return yaml.safe_dump(bridge, sort_keys=False)
 
 
-@contextmanager
-def bridge_with_sim(ros: RosHarness, data: dict[str, Any], params: Iterable[Parameter] = (),
-                    lifecycle: bool = False, **node_options: Any) -> Iterator[BusNode]:
+def start_bridge(ros: RosHarness, data: dict[str, Any], params: Iterable[Parameter] = (),
+                 lifecycle: bool = False, **node_options: Any) -> BusNode:
     """A bus node on a local bus with the config's simulated drives in this process
-    (``node.simulation``); both stopped afterwards."""
+    (``node.simulation``), spun by ``ros``; :func:`stop_bridge` ends both."""
     data = local_data(data)
     sim = simulated(data)
     node_class = BusLifecycleNode if lifecycle else BusNode
@@ -69,11 +70,43 @@ def bridge_with_sim(ros: RosHarness, data: dict[str, Any], params: Iterable[Para
         raise
     node.simulation = sim  # type: ignore[attr-defined]
     ros.add(node)
+    return node
+
+
+def stop_bridge(node: BusNode) -> None:
+    """Close the node (its bus process stops the axes and ends), then stop its simulated drives."""
+    try:
+        node.close()
+    finally:
+        node.simulation.stop()  # type: ignore[attr-defined]
+
+
+@contextmanager
+def bridge_with_sim(ros: RosHarness, data: dict[str, Any], params: Iterable[Parameter] = (),
+                    lifecycle: bool = False, **node_options: Any) -> Iterator[BusNode]:
+    """:func:`start_bridge` for the ``with`` block; both stopped afterwards."""
+    node = start_bridge(ros, data, params, lifecycle, **node_options)
     try:
         yield node
     finally:
-        node.close()
-        sim.stop()
+        stop_bridge(node)
+
+
+def channel_of(node: BusNode) -> str:
+    """The node's local channel (the bus process, the simulated drives and any sniffer share it)."""
+    return str(node.master.config.bus.channel)
+
+
+@contextmanager
+def sniffing(node: BusNode) -> Iterator[Sniffer]:
+    """A participant of the node's local bus that records every frame (the bridge's and the
+    drives') and sends what the test injects. It reads all the time: a local peer that does not
+    read holds every sender back (``transport.local``)."""
+    sniffer = Sniffer(channel_of(node), interface='local')
+    try:
+        yield sniffer
+    finally:
+        sniffer.close()
 
 
 def node_snapshot(node: BusNode, name: str) -> NodeSnapshot:
