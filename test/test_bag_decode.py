@@ -22,11 +22,11 @@ from sensor_msgs.msg import JointState
 from test_streaming_ros import point
 from trajectory_msgs.msg import JointTrajectory
 
+from bridgetools import start_bridge, stop_bridge
 from bustools import demo_data
 from drive_bridge.bag.typestore import typestore
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.cli.main import main
-from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
@@ -56,12 +56,11 @@ def recorded(tmp_path_factory):
     live_joints: list[JointState] = []
     live_axes: list[AxisStates] = []
     live_emcy: list[Emcy] = []
+    node = None
     try:
-        node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
+        node = start_bridge(ros, demo_data(), [
             Parameter('auto_enable', value=True),
             Parameter('record.path', value=str(bags)), Parameter('record.start', value=True)])
-        ros.add(node)
         node.master.wait_until_operational(10.0)
         wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
         listener = ros.node('live_listener')
@@ -82,8 +81,9 @@ def recorded(tmp_path_factory):
         time.sleep(0.6)
         lift.start_heartbeat()
         time.sleep(0.4)
-        node.close()
     finally:
+        if node is not None:
+            stop_bridge(node)
         ros.shutdown()
     assert live_emcy, 'the injected fault sent no EMCY'
     bag, = bags.iterdir()
