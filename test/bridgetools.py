@@ -29,9 +29,12 @@ from rostools import RosHarness
 
 
 def local_data(data: dict[str, Any], channel: str | None = None) -> dict[str, Any]:
-    """``data`` on a ``local`` bus of its own (its simulation left to the caller)."""
+    """``data`` on a ``local`` bus of its own (its simulation left to the caller); data already
+    on a local channel keeps it (a test may have joined it before the node starts)."""
     data = copy.deepcopy(data)
     bus = dict(data.get('bus') or {})
+    if channel is None and bus.get('interface') == 'local':
+        channel = bus.get('channel')
     bus.update(interface='local', channel=channel or unique_channel(f'ros{os.getpid()}'))
     data['bus'] = bus
     return data
