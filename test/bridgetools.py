@@ -134,7 +134,9 @@ def fresh_snapshot(node: BusNode, timeout: float = 5.0) -> BusSnapshot:
     return wait_for(newer, timeout, 'a new snapshot from the bus process')
 
 
-def node_snapshot(node: BusNode, name: str) -> NodeSnapshot:
+def node_snapshot(node: BusNode, name: str, fresh: bool = False) -> NodeSnapshot:
     """A node's state as the bus process last reported it (the test query for what the master
-    knows of a node: boot attempts, NMT state, EMCY history)."""
-    return next(n for n in node.master.snapshot().nodes if n.name == name)
+    knows of a node: boot attempts, NMT state, EMCY history); ``fresh``: as it is now
+    (:func:`fresh_snapshot`)."""
+    snapshot = fresh_snapshot(node) if fresh else node.master.snapshot()
+    return next(n for n in snapshot.nodes if n.name == name)
