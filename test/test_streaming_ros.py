@@ -5,7 +5,6 @@ from __future__ import annotations
 import time
 
 import pytest
-import yaml
 from builtin_interfaces.msg import Duration
 from drive_bridge_interfaces.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import JointTolerance
@@ -15,10 +14,10 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from bridgetools import bridge_with_sim
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
-from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
@@ -27,14 +26,10 @@ Result = FollowJointTrajectory.Result
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    node = BusNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
-        Parameter('auto_enable', value=True)])
-    ros.add(node)
-    node.master.wait_until_operational(10.0)
-    wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
-    yield node
-    node.close()
+    with bridge_with_sim(ros, demo_data(), [Parameter('auto_enable', value=True)]) as node:  # drives in the test
+        node.master.wait_until_operational(10.0)
+        wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
+        yield node
 
 
 def point(t: float, positions, velocities=()) -> JointTrajectoryPoint:
