@@ -32,9 +32,8 @@ JOINTS = ['base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint']
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    node = demo_bridge(ros)
-    yield node
-    node.close()
+    with demo_bridge(ros) as node:
+        yield node
 
 
 def trajectory(points: int, joints: list[str] = JOINTS) -> JointTrajectory:
