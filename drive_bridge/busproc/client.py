@@ -12,6 +12,7 @@ from __future__ import annotations
 import concurrent.futures
 import itertools
 import logging
+import signal
 import subprocess
 import sys
 import threading
@@ -167,7 +168,7 @@ class BusClient:
         if process is not None and reason != 'closed':
             try:  # the exit code says more than the closed lane (it follows within ms)
                 code = process.wait(0.05)
-                reason = f'{reason}; bus process {process.pid} exited with code {code}'
+                reason = f'{reason}; bus process {process.pid} {ending(code)}'
             except subprocess.TimeoutExpired:
                 pass
         self.lost = reason = f'bus process lost: {reason}' if reason != 'closed' else 'bus process ended'
@@ -425,5 +426,16 @@ class BusClient:
         assert process is not None
         code = process.wait()
         time.sleep(0.01)  # let a lane's end of stream name the cause first, where there is one
-        self._lost(f'it exited with code {code}' if code >= 0 else f'it was killed by signal {-code}')
+        self._lost(f'bus process {process.pid} {ending(code)}')
+
+
+def ending(code: int) -> str:
+    """How a process ended, from its exit code (negative: the signal that killed it)."""
+    if code >= 0:
+        return f'exited with code {code}'
+    try:
+        name = signal.Signals(-code).name
+    except ValueError:
+        name = 'unknown signal'
+    return f'was killed by signal {-code} ({name})'
 

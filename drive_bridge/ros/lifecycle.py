@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
-from drive_bridge.ros.bridge import Bridge, StartupError, configuration
+from drive_bridge.ros.bridge import Bridge, StartupError, configuration, with_config_path
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare, read, watch
 
 
@@ -36,12 +36,12 @@ class BusLifecycleNode(LifecycleNode):
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
-            params = read(self)  # the values set since start count
+            params = with_config_path(read(self), self.config_path)  # the values set since start count
         except ParameterError as exc:
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
         try:
-            self.bridge = Bridge(self, params, configuration(params, self.config_path))
+            self.bridge = Bridge(self, params, configuration(params))
         except StartupError as exc:
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE

@@ -3,6 +3,7 @@ what the console entry points run."""
 from __future__ import annotations
 
 import gc
+import time
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -12,6 +13,7 @@ from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 
 EXIT_BUS_LOST = 3  # the bus process ended without being asked (killed, crashed)
+BUS_LOST_LINGER = 1.0  # s the node keeps answering (refusing, with the reason) before it exits
 
 
 def run(config_path: str, args: list[str], managed: bool = False) -> int:
@@ -30,13 +32,16 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     code = 0
+    lost_at = 0.0
     try:
         while rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
             bridge = node.bridge
             if bridge is not None and bridge.bus_lost.is_set():
-                code = EXIT_BUS_LOST
-                break
+                lost_at = lost_at or time.monotonic()
+                if time.monotonic() - lost_at >= BUS_LOST_LINGER:  # /diagnostics said it; refusals named it
+                    code = EXIT_BUS_LOST
+                    break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
