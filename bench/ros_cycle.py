@@ -126,32 +126,47 @@ def _pct(values: list[float], q: float) -> float:
 # --- the bridge process -------------------------------------------------------------------------
 
 class Window:
-    """Frames seen by the bus tap while the measurement window is open (time, id, sent)."""
+    """Frames seen by the bus tap while the measurement window is open (time, id, sent), and the
+    CPU of the processes that run the bridge (this one, and its bus process where it has one)
+    over the window. With a bus process the frames are captured there (``capture``)."""
 
     def __init__(self) -> None:
         self.open = False
         self.frames: list[tuple[float, int, bool]] = []
         self.cpu = (0.0, 0.0)
+        self.capture: Any = None  # path -> None: start ('' stops) the bus process's capture
+        self.processes: list[int] = [os.getpid()]
 
     def __call__(self, msg: Any) -> None:
         if self.open:
             self.frames.append((msg.timestamp, msg.arbitration_id, not msg.is_rx))
 
-    def run(self, ready: threading.Event) -> None:
+    def _cpu(self) -> float:
         import psutil
-        me = psutil.Process()
+        total = 0.0
+        for pid in self.processes:
+            t = psutil.Process(pid).cpu_times()
+            total += t.user + t.system
+        return total
+
+    def run(self, ready: threading.Event) -> None:
         ready.wait()
         print('ready', flush=True)
+        capture = tempfile.mktemp(suffix='.json')
         for line in sys.stdin:
             if line.strip() == 'start':
-                t = me.cpu_times()
-                self.cpu = (t.user + t.system, time.perf_counter())
+                if self.capture is not None:
+                    self.capture(capture)
+                self.cpu = (self._cpu(), time.perf_counter())
                 self.open = True
             elif line.strip() == 'stop':
                 self.open = False
-                t = me.cpu_times()
                 cpu_s, since = self.cpu
-                self.cpu = ((t.user + t.system - cpu_s) / (time.perf_counter() - since), 0.0)
+                self.cpu = ((self._cpu() - cpu_s) / (time.perf_counter() - since), 0.0)
+                if self.capture is not None:
+                    self.capture('')
+                    self.frames = [tuple(f) for f in json.loads(Path(capture).read_text())]  # type: ignore[misc]
+                    os.unlink(capture)
                 return
 
 
@@ -168,7 +183,8 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
         from drive_bridge.cia402.statemachine import State
         from drive_bridge.ros.node import BusNode
         node: Any = BusNode(config_path)
-        node.master.add_frame_listener(window)
+        window.capture = lambda path: node.master.capture(path)  # frames seen by the bus process's tap
+        window.processes.append(node.master.pid)
 
         def wait_enabled() -> None:
             node.master.wait_until_operational(30)
@@ -197,8 +213,8 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
     streaming = None
     if variant in ('bridge', 'rt'):
         streaming = [h.state for h in node.trajectories.active()]
-        if node.master.sync is not None:
-            s = node.master.sync.stats()
+        s = node.master.snapshot().sync
+        if s is not None:
             sync_stats = {'skipped': s.skipped, 'cycles': s.cycles}
     Path(out).write_text(json.dumps({'frames': window.frames, 'cpu': window.cpu[0], 'own': sync_stats,
                                      'streaming': streaming}))
@@ -581,7 +597,7 @@ def main(argv: list[str]) -> None:
         env['DRIVE_BRIDGE_CAN_DIR'] = str(work / 'can')
         print(f'{args.seconds:g} s per case; SYNC/lead/js in ms; skipped = grid points without SYNC of all; '
               'on time = SYNCs whose every set-point RPDO went out after the previous SYNC; '
-              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
+              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge (node and bus process); "
               "core = Master + TrajectoryExecutor alone, no rclpy (no subscriber: js '-'); "
               "idle p99/skip = a bare sleep loop on the grid in another process meanwhile: its interval p99 "
               "and skipped share (the machine's floor); rt = the bridge with master.realtime_priority "

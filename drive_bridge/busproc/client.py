@@ -268,6 +268,11 @@ class BusClient:
         if not self.lost and self.started:
             self.call_async(Settings(**changes))  # type: ignore[arg-type]
 
+    def capture(self, path: str) -> None:
+        """Start a timing capture of the bus into ``path`` ('': stop it and write the file);
+        waits until the bus process has done it."""
+        self.call(Settings(capture=path), 30.0)
+
     # -- listeners -------------------------------------------------------------------------------------
     def add_event_listener(self, listener: Callable[[BusEvent], None]) -> None:
         self._event_listeners = [*self._event_listeners, listener]
