@@ -209,8 +209,8 @@ def test_a_starter_without_a_matching_eds_says_to_give_one_and_scaling_none_is_d
     # the integrator's choices: the EDS, device units on purpose, no limits
     text = text.replace('dcf: TODO', f'dcf: {EPOS4_EDS}').replace("scaling:\n        counts_per_revolution: TODO",
                                                                    'scaling: none')
-    text = text.replace('min_position: TODO', 'min_position: -1.0e9').replace('max_position: TODO', 'max_position: 1.0e9')
-    text = text.replace('max_velocity: TODO', 'max_velocity: 1.0e9')
+    for key in ('min_position', 'max_position', 'max_velocity'):
+        text = text.replace(f'{key}: TODO', f'{key}: {-1e9 if key == "min_position" else 1e9}')
     out.write_text(text)
     config = load_bus_config(out)
     assert not any('TODO' in w or 'unscaled' in w for w in config.warnings), config.warnings

@@ -4,6 +4,9 @@ stopping with deceleration."""
 from __future__ import annotations
 
 import math
+import re
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -266,3 +269,25 @@ def test_goals_the_bridge_cannot_execute_are_refused_with_the_reason(ros, bridge
     accepted = Goal(ros, action, moving, component_goal_tolerance=[
         JointComponentTolerance(joint_name='base_joint', component=JointComponentTolerance.ROTATION, position=-1.0)])
     assert accepted.result().error_code == Result.SUCCESSFUL
+
+
+def test_the_documented_action_example_runs_against_the_demo(ros) -> None:
+    """docs/interfaces.md's Python call example, as a client process of its own. The demo with
+    1 s heartbeat timeouts (multiplier 10), as test_setup's README example: a process starting
+    beside it on a busy machine stalled the bridge's process 0.5 s and faulted its drives."""
+    data = demo_data()
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
+    bridge = BusNode(context=ros.context, parameter_overrides=[
+        Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)), Parameter('auto_enable', value=True)])
+    ros.add(bridge)
+    try:
+        wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in bridge.master.axes.values()), 15, 'enabled')
+        text = (Path(__file__).resolve().parents[1] / 'docs' / 'interfaces.md').read_text()
+        section = text.split('## The trajectory action', 1)[1].split('\n## ', 1)[0]
+        (example,) = re.findall(r'```python\n(.*?)```', section, re.S)
+        run = subprocess.run([sys.executable, '-c', example], capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0, run.stderr[-2000:]
+        assert run.stdout.strip().splitlines()[-1] == '0', run.stdout
+        assert bridge.master.axes['base_joint'].snapshot().position == pytest.approx(0.0, abs=0.01)
+    finally:
+        bridge.close()

@@ -74,7 +74,7 @@ def _comment(node: FoundNode, dcf: str | None, others: Sequence[str]) -> list[st
     if len(node.matches) > 1 and node.matches[0][0] == node.matches[1][0]:
         lines.append('  # also fits family ' + ', '.join(f for m, f in node.matches[1:] if m == node.matches[0][0]))
     if dcf is not None:
-        lines.append(f'  # dcf: the EDS whose identity is this device\'s'
+        lines.append("  # dcf: the EDS whose identity is this device's"
                      + (f' (also: {", ".join(others)})' if others else ''))
     elif node.family == 'generic_301':
         lines.append('  # dcf: TODO: no drive family knows this device: its EDS (and rpdo/tpdo)')

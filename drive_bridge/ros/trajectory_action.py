@@ -1,6 +1,7 @@
 """control_msgs' FollowJointTrajectory action on the bus's joints (MoveIt's controller type).
 
-What the bridge cannot execute is refused first, with the reason (ros/goal_checks.py). A new goal replaces the running one (which ends aborted, "replaced"); cancel stops the
+What the bridge cannot execute is refused first, with the reason (ros/goal_checks.py). A new
+goal replaces the running one (which ends aborted, "replaced"); cancel stops the
 joints with a controlled deceleration; a path tolerance violation stops and aborts; at
 the end the goal tolerance must hold within goal_time_tolerance. Feedback (desired,
 actual, error) is sent at FEEDBACK_PERIOD. The execute coroutine sleeps on rclpy futures
