@@ -16,6 +16,7 @@ from typing import Any
 from drive_bridge.ros.message_limits import MAX_JOINT_NAMES
 
 SHOWN = 5  # names quoted in a reason; the rest are counted
+NAME_CHARS = 40  # of a name quoted (a client may send megabytes)
 
 
 class GoalRefused(ValueError):
@@ -27,7 +28,7 @@ class GoalRefused(ValueError):
 
 
 def _names(names: Sequence[str]) -> str:
-    shown = ', '.join(repr(n) for n in names[:SHOWN])
+    shown = ', '.join(repr(n if len(n) <= NAME_CHARS else n[:NAME_CHARS] + '...') for n in names[:SHOWN])
     return shown + (f' and {len(names) - SHOWN} more' if len(names) > SHOWN else '')
 
 
