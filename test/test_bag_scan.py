@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -17,9 +19,9 @@ from drive_bridge.config import ConfigError
 from drive_bridge.config.loader import load_bus_config
 from drive_bridge.families import IdentityMatch, families_for_identity, get_family
 from drive_bridge.families.interface import eds_identity
-from drive_bridge.joint import JointError
+from drive_bridge.joint import JointDriver, JointError
 from drive_bridge.master.master import Master
-from drive_bridge.model import Identity
+from drive_bridge.model import BusConfig, Identity
 from drive_bridge.sim import SimulatedBus, simulator_for
 from drive_bridge.sim.testing import AKD_EDS, node_config
 from drive_bridge.streaming.executor import TrajectoryExecutor
@@ -135,6 +137,22 @@ def epos4_bus():
         yield data['bus']['channel']
 
 
+@contextmanager
+def enabled(joint: str, config: BusConfig) -> Iterator[tuple[JointDriver, TrajectoryExecutor]]:
+    """A master on the simulated bus, the joint enabled, a trajectory executor on its cycle."""
+    master = Master(config)
+    try:
+        master.start()
+        master.wait_until_operational(15.0)
+        axis = master.axes[joint]
+        axis.enable(3.0)
+        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
+        master.add_cycle_listener(executor.check)
+        yield axis, executor
+    finally:
+        master.stop()
+
+
 def scan_to(channel: str, out: Path, *extra: str) -> int:
     return main(['scan', '--interface', 'virtual', '--channel', channel, '--nodes', '1-10', *extra, '-o', str(out)])
 
@@ -157,13 +175,7 @@ def test_scan_of_an_epos4_names_its_eds_and_the_starter_boots_but_moves_only_onc
 
     config = load_bus_config(out)  # boots as written ...
     assert any('TODO' in w for w in config.warnings)
-    master = Master(config)
-    try:
-        master.start()
-        master.wait_until_operational(15.0)
-        axis = master.axes['node_3_joint']
-        axis.enable(3.0)
-        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
+    with enabled('node_3_joint', config) as (axis, executor):
         here = axis.snapshot().position
         keys = ('nodes.node_3.axes[0].scaling.counts_per_revolution, nodes.node_3.axes[0].limits.min_position, '
                 'nodes.node_3.axes[0].limits.max_position, nodes.node_3.axes[0].limits.max_velocity are TODO')
@@ -172,8 +184,6 @@ def test_scan_of_an_epos4_names_its_eds_and_the_starter_boots_but_moves_only_onc
             executor.submit(Trajectory((axis.joint,), (TrajectoryPoint(0.3, (here + 100,)),)))
         with pytest.raises(JointError, match=re.escape(keys)):
             axis.check_command(position=here + 100)
-    finally:
-        master.stop()
 
     for todo, value in FILLED.items():
         text = text.replace(todo, value)
@@ -181,20 +191,11 @@ def test_scan_of_an_epos4_names_its_eds_and_the_starter_boots_but_moves_only_onc
     filled.write_text(text)
     config = load_bus_config(filled)
     assert not any('TODO' in w for w in config.warnings)
-    master = Master(config)
-    try:
-        master.start()
-        master.wait_until_operational(15.0)
-        axis = master.axes['node_3_joint']
-        axis.enable(3.0)
-        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
-        master.add_cycle_listener(executor.check)
+    with enabled('node_3_joint', config) as (axis, executor):
         here = axis.snapshot().position
         handle = executor.submit(Trajectory((axis.joint,), (TrajectoryPoint(0.3, (here + 0.2,)),)))
         assert handle is not None and handle.wait(5.0), handle and handle.reason
         eventually(lambda: abs(axis.snapshot().position - here - 0.2) < 3e-3, 3.0, 'the goal in rad')
-    finally:
-        master.stop()
 
 
 def test_a_starter_without_a_matching_eds_says_to_give_one_and_scaling_none_is_device_units(
