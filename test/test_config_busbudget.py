@@ -89,8 +89,9 @@ def test_the_counted_frames_are_what_the_bus_carries() -> None:
 
 
 def test_an_axis_whose_mode_is_picked_at_boot_counts_its_ip_rpdo() -> None:
-    from configtools import REAL_EDS
     from test_any402 import SCALE
+
+    from configtools import REAL_EDS
     config = config_from({'bus': {'interface': 'virtual', 'channel': 'budget_ip', 'bitrate': 1_000_000},
                           'master': {'sync_period': 4000},
                           'nodes': {'j': {'dcf': str(REAL_EDS / 'PRL120.eds'), 'node_id': 2, **SCALE}}})
