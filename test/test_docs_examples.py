@@ -118,7 +118,7 @@ def readme_demo_lines() -> list[str]:
 
 
 def test_interfaces_examples_run_against_the_demo(bridge) -> None:
-    lines = [*readme_demo_lines(), *blocks_of('demo')]
+    lines = [*blocks_of('demo'), *readme_demo_lines()]  # the README's moves the joints: after the commands at 0.0
     assert any('follow_joint_trajectory' in line for line in lines)
     proc = bridge('bridge', REPO / 'config' / 'demo.yaml', '-p', 'auto_enable:=true')
     run_lines(lines, proc)
