@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 import re
-import signal
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -21,6 +20,7 @@ import pytest
 import yaml
 
 import ros2cli
+from rostools import interrupt
 
 REPO = Path(__file__).resolve().parent.parent
 DOCS = REPO / 'docs'
@@ -87,13 +87,7 @@ def bridge(tmp_path: Path) -> Iterator[callable]:
 
     yield start
     for proc in procs:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGINT)
-        try:
-            proc.communicate(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
+        interrupt(proc)
 
 
 def run_lines(lines: list[str], proc: subprocess.Popen) -> None:

@@ -13,7 +13,7 @@ import yaml
 from drive_bridge_interfaces.msg import CanFrame
 
 import ros2cli
-from rostools import RosHarness, wait_for
+from rostools import RosHarness, interrupt, wait_for
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -124,7 +124,11 @@ def test_readme_your_drive_in_ten_lines(tmp_path: Path) -> None:
     its two commands (drive-bridge sim, then the bridge, over the local transport), its Python
     client (enable, a trajectory to 1 rad, an SDO read), then its ros2 lines."""
     section = readme_section('Your drive in ten lines')
-    (tmp_path / 'my_bus.yaml').write_text(code_blocks(section, 'yaml')[0])
+    # with heartbeat timeouts of 1 s instead of 300 ms (multiplier 10), as the demo test above: on a
+    # loaded machine (load 10 on 2 cores) the drive faulted by its heartbeat consumer (EMCY 0x8130)
+    data = yaml.safe_load(code_blocks(section, 'yaml')[0])
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
+    (tmp_path / 'my_bus.yaml').write_text(yaml.safe_dump(data, sort_keys=False))
     commands = [line.split('#')[0].strip().rstrip('&').strip() for line in code_blocks(section, 'bash')[0].splitlines()]
     assert [c.split()[0] for c in commands] == ['.venv/bin/drive-bridge', '.venv/bin/bridge']
     env = dict(os.environ, DRIVE_BRIDGE_CAN_DIR=str(tmp_path))  # the local bus of this test only
@@ -156,10 +160,4 @@ def test_readme_your_drive_in_ten_lines(tmp_path: Path) -> None:
             session.close()
     finally:
         for proc in reversed(procs):  # the bridge first: it stops the axis while the drive still runs
-            if proc.poll() is None:
-                os.killpg(proc.pid, signal.SIGINT)
-            try:
-                proc.communicate(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.communicate()
+            interrupt(proc)
