@@ -144,7 +144,8 @@ def test_the_node_killed_its_bus_process_quick_stops_every_axis_then_disables_or
         bridge.wait(5)
 
         def stopped(cob_id: int) -> float | None:
-            return next((t for t, cw in sniffer.controlwords(cob_id, killed) if cw & QUICK_STOP_MASK == QUICK_STOP), None)
+            return next((t for t, cw in sniffer.controlwords(cob_id, killed)
+                         if cw & QUICK_STOP_MASK == QUICK_STOP), None)
         wait_for(lambda: all(stopped(c) for c in (*RPDO1.values(), RPDO3_ARM)), 2,
                  'a quick-stop controlword to every axis')
         assert max(stopped(c) for c in (*RPDO1.values(), RPDO3_ARM)) - killed < 1.0  # goal 0.1 s: bench

@@ -44,10 +44,10 @@ from drive_bridge.busproc.reports import (
 )
 from drive_bridge.busproc.snapshots import SnapshotCache
 from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.source import ConfigSource
 from drive_bridge.families import get_family
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
-from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.master.events import BusEvent
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.sdo import SdoPlain

@@ -232,7 +232,8 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
                       joint_type=joint_type, scaling=scaling, limits=limits,
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
                       position_loop=_position_loop(sec.section('position_loop'), family),
-                      node_loss=_node_loss(sec.section('on_node_loss')), drive=_drive_options(sec, family), where=f'{file}: {loc.path}', **modes)
+                      node_loss=_node_loss(sec.section('on_node_loss')), drive=_drive_options(sec, family),
+                      where=f'{file}: {loc.path}', **modes)
     slot_loc = sec.loc('slot') if 'slot' in sec else loc
     return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None
 
