@@ -8,6 +8,8 @@ cleanup    = quick-stop enabled axes, close the bus
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from drive_bridge.ros.bridge import Bridge, StartupError, configuration, with_config_path
@@ -22,6 +24,7 @@ class BusLifecycleNode(LifecycleNode):
         self.config_path = config_path
         self.bridge: Bridge | None = None
         self.params: BridgeParameters | None = None
+        self.on_bus_started: Callable[[int], None] | None = None  # (node_nice) once a bus process runs
         try:
             self.params = declare(self)
         except ParameterError as exc:
@@ -46,6 +49,8 @@ class BusLifecycleNode(LifecycleNode):
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
         self.params = params
+        if self.on_bus_started is not None:
+            self.on_bus_started(params.node_nice)
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
