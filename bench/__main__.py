@@ -1,4 +1,5 @@
-"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak] [options]``: run a benchmark
+"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak|boundary_mechanism|boundary]
+[options]``: run a benchmark
 and print its table."""
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 BENCHMARKS = {'tracking': 'bench.tracking', 'memory': 'bench.memory', 'recording': 'bench.recording',
               'diagnose': 'bench.diagnose', 'transport': 'bench.transport', 'ros_cycle': 'bench.ros_cycle',
-              'soak': 'bench.soak'}
+              'soak': 'bench.soak', 'boundary_mechanism': 'bench.boundary_mechanism', 'boundary': 'bench.boundary'}
 
 
 def main() -> None:

@@ -9,7 +9,7 @@ with the same PDO maps, is what the canopen and rclpy documentation lead to: can
 with ``PdoVariable.raw``, and an rclpy timer at the SYNC period that writes the set-points
 (the same motion, computed in place: it has no trajectory handling to pay for) and
 publishes the joint states. The rt variant is the bridge with ``master.realtime_priority``
-(SCHED_FIFO for its cycle thread), as the README tells users on a robot.
+(SCHED_FIFO for its cycle thread), as docs/hardware.md tells users on a robot.
 The core variant (bench/ros_cycle_core.py), also in the same
 run, is the bridge's core alone in the bridge process, without rclpy: Master and
 TrajectoryExecutor streaming the same motion and reading the joint feedback each cycle,
@@ -48,6 +48,8 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+
+from bench.floods import FLOODS, flood_role  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 TOOL = Path(sys.executable).parent / 'drive-bridge'
@@ -126,32 +128,47 @@ def _pct(values: list[float], q: float) -> float:
 # --- the bridge process -------------------------------------------------------------------------
 
 class Window:
-    """Frames seen by the bus tap while the measurement window is open (time, id, sent)."""
+    """Frames seen by the bus tap while the measurement window is open (time, id, sent), and the
+    CPU of the processes that run the bridge (this one, and its bus process where it has one)
+    over the window. With a bus process the frames are captured there (``capture``)."""
 
     def __init__(self) -> None:
         self.open = False
         self.frames: list[tuple[float, int, bool]] = []
         self.cpu = (0.0, 0.0)
+        self.capture: Any = None  # path -> None: start ('' stops) the bus process's capture
+        self.processes: list[int] = [os.getpid()]
 
     def __call__(self, msg: Any) -> None:
         if self.open:
             self.frames.append((msg.timestamp, msg.arbitration_id, not msg.is_rx))
 
-    def run(self, ready: threading.Event) -> None:
+    def _cpu(self) -> float:
         import psutil
-        me = psutil.Process()
+        total = 0.0
+        for pid in self.processes:
+            t = psutil.Process(pid).cpu_times()
+            total += t.user + t.system
+        return total
+
+    def run(self, ready: threading.Event) -> None:
         ready.wait()
         print('ready', flush=True)
+        capture = tempfile.mktemp(suffix='.json')
         for line in sys.stdin:
             if line.strip() == 'start':
-                t = me.cpu_times()
-                self.cpu = (t.user + t.system, time.perf_counter())
+                if self.capture is not None:
+                    self.capture(capture)
+                self.cpu = (self._cpu(), time.perf_counter())
                 self.open = True
             elif line.strip() == 'stop':
                 self.open = False
-                t = me.cpu_times()
                 cpu_s, since = self.cpu
-                self.cpu = ((t.user + t.system - cpu_s) / (time.perf_counter() - since), 0.0)
+                self.cpu = ((self._cpu() - cpu_s) / (time.perf_counter() - since), 0.0)
+                if self.capture is not None:
+                    self.capture('')
+                    self.frames = [tuple(f) for f in json.loads(Path(capture).read_text())]  # type: ignore[misc]
+                    os.unlink(capture)
                 return
 
 
@@ -168,7 +185,10 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
         from drive_bridge.cia402.statemachine import State
         from drive_bridge.ros.node import BusNode
         node: Any = BusNode(config_path)
-        node.master.add_frame_listener(window)
+        from drive_bridge.ros.main import lower_priority
+        lower_priority(int(os.environ.get('BENCH_NODE_NICE', node.params.node_nice)))  # as ros.main.run does
+        window.capture = lambda path: node.master.capture(path)  # frames seen by the bus process's tap
+        window.processes.append(node.master.pid)
 
         def wait_enabled() -> None:
             node.master.wait_until_operational(30)
@@ -197,8 +217,8 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
     streaming = None
     if variant in ('bridge', 'rt'):
         streaming = [h.state for h in node.trajectories.active()]
-        if node.master.sync is not None:
-            s = node.master.sync.stats()
+        s = node.master.snapshot().sync
+        if s is not None:
             sync_stats = {'skipped': s.skipped, 'cycles': s.cycles}
     Path(out).write_text(json.dumps({'frames': window.frames, 'cpu': window.cpu[0], 'own': sync_stats,
                                      'streaming': streaming}))
@@ -407,7 +427,7 @@ def _expect(process: subprocess.Popen[str], word: str, what: str, timeout: float
 
 
 def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Path, env: dict[str, str],
-             maps: str = 'default') -> dict:
+             maps: str = 'default', flood: str | None = None) -> dict:
     channel = f'b{uuid.uuid4().hex[:6]}'
     config = work / f'{channel}.yaml'
     config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps, realtime=variant == 'rt')))
@@ -433,6 +453,11 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
             sub.stdin.write('go\n')
             sub.stdin.flush()
             _expect(sub, 'streaming', 'subscriber', 60)
+        if flood is not None:  # beside every variant alike: its own CPU counts on both sides
+            flooder = _popen([*me, '--role', 'flood', '--kind', flood, '--joints', str(axes),
+                              '--seconds', str(seconds + WARMUP + 5)], env, log)
+            processes.append(flooder)
+            _expect(flooder, 'flooding', f'{flood} flood', 60)
         time.sleep(WARMUP + 0.3)
         assert bridge.stdin is not None
         bridge.stdin.write('start\n')
@@ -500,13 +525,14 @@ def analyse(data: dict, states: list[list[float]], axes: int, period: float,
             leads.append(sync - last)
     latency = [recv - stamp for recv, stamp in states if stamp > 0]
     probe = data.get('probe')
+    emcy = sum(1 for _t, can_id, sent in frames if not sent and 0x81 <= can_id <= 0xFF)
     return {'sync_p50': statistics.median(intervals) if intervals else float('nan'),
             'sync_p99': _pct(intervals, 0.99), 'sync_max': max(intervals, default=float('nan')),
             'cycles': len(intervals), 'skipped': skipped,
             'on_time': on_time / len(intervals) if intervals else float('nan'),
             'lead_p50': statistics.median(leads) if leads else float('nan'),
             'js_p50': statistics.median(latency) if latency else float('nan'),
-            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'],
+            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'], 'emcy': emcy,
             'idle_skip': probe['skipped'] / (probe['skipped'] + probe['cycles']) if probe else float('nan'),
             'idle_p99': probe.get('interval_p99', float('nan')) if probe else float('nan')}
 
@@ -548,7 +574,8 @@ def ratio_row(bridge: dict, naive: dict, period: float, label: str = 'bridge') -
 
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(prog='python -m bench ros_cycle', description=__doc__.split('\n\n')[0])
-    parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe'], help=argparse.SUPPRESS)
+    parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe', 'flood'], help=argparse.SUPPRESS)
+    parser.add_argument('--kind', help=argparse.SUPPRESS)
     parser.add_argument('--period', type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument('--variant', default='bridge', help=argparse.SUPPRESS)
     parser.add_argument('--config', help=argparse.SUPPRESS)
@@ -563,7 +590,12 @@ def main(argv: list[str]) -> None:
     parser.add_argument('--maps', choices=MAPS, default='default',
                         help="PDO maps: the family's default (2 RPDOs + 2 TPDOs per axis) or compact (1 + 1 "
                              'per cycle, the statusword on change)')
+    parser.add_argument('--floods', nargs='*', choices=FLOODS, default=None,
+                        help='instead of the table: each flood (default all) beside the bridge and beside core, '
+                             'with the same case without flood, at the first of --axes/--periods (default 4 at 4 ms)')
     args = parser.parse_args(argv)
+    if args.role == 'flood':
+        return flood_role(args.kind, args.joints, args.seconds)
     if args.role == 'bridge':
         return bridge_role(args.config, args.variant, args.out, args.seconds)
     if args.role == 'subscriber':
@@ -572,6 +604,8 @@ def main(argv: list[str]) -> None:
         return probe_role(args.period, args.seconds, args.out)
     if args.quick:
         args.axes, args.periods, args.seconds = [1, 4], [4], 3.0
+    if args.floods is not None and '--axes' not in argv:
+        args.axes, args.periods = [4], [4]
     from drive_bridge.config import load_bus_config_text
     from drive_bridge.config.busbudget import budget_of
     env = {**os.environ, 'PYTHONPATH': str(REPO), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
@@ -581,12 +615,14 @@ def main(argv: list[str]) -> None:
         env['DRIVE_BRIDGE_CAN_DIR'] = str(work / 'can')
         print(f'{args.seconds:g} s per case; SYNC/lead/js in ms; skipped = grid points without SYNC of all; '
               'on time = SYNCs whose every set-point RPDO went out after the previous SYNC; '
-              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
+              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge (node and bus process); "
               "core = Master + TrajectoryExecutor alone, no rclpy (no subscriber: js '-'); "
               "idle p99/skip = a bare sleep loop on the grid in another process meanwhile: its interval p99 "
               "and skipped share (the machine's floor); rt = the bridge with master.realtime_priority "
               f"{REALTIME_PRIORITY} (SCHED_FIFO); ratio = naive/bridge, ratioR = naive/rt; "
               "'!' = over 70 % of 1 Mbit/s")
+        if args.floods is not None:
+            return flood_table(args, work, env)
         print(HEADER)
         for period_ms in args.periods:
             for axes in args.axes:
@@ -601,6 +637,32 @@ def main(argv: list[str]) -> None:
                 for ours in ('bridge', 'rt'):
                     if ours in results and 'naive' in results:
                         print(ratio_row(results[ours], results['naive'], period_ms / 1000, ours), flush=True)
+
+
+def flood_table(args: argparse.Namespace, work: Path, env: dict[str, str]) -> None:
+    """Each flood beside the bridge and beside core, with the case without flood, in one run."""
+    axes, period_ms = args.axes[0], args.periods[0]
+    print(f'floods at {axes} axes, {period_ms:g} ms, {args.maps} maps, trajectories streaming; '
+          'skipped = grid points without SYNC; EMCY = EMCY frames from the drives (faults, heartbeat '
+          'errors) in the window; js rate = /joint_states at the subscriber, share of the SYNC rate; '
+          'ratio = bridge skipped / core skipped (goal <= 2, no EMCY, js >= 90 %)')
+    print(f'{"flood":12} {"variant":7} {"skipped":>13} {"EMCY":>5} {"js rate":>8} {"CPU":>5} {"ratio":>6}')
+    for flood in [None, *(args.floods or FLOODS)]:
+        results = {}
+        for variant in ('bridge', 'core'):
+            try:
+                r = results[variant] = run_case(axes, period_ms, variant, args.seconds, work, env, args.maps, flood)
+            except Exception as exc:
+                print(f'{flood or "none":12} {variant:7} could not run: {exc}', flush=True)
+                continue
+            expected = args.seconds / (period_ms / 1000)
+            rate = f'{r["js_rate"] / expected:8.0%}' if variant == 'bridge' else f'{"-":>8}'
+            ratio = ''
+            if variant == 'core' and 'bridge' in results:
+                core, bridge = r['skipped'], results['bridge']['skipped']
+                ratio = f'{bridge / core:6.1f}' if core else ('1.0' if not bridge else '∞')
+            print(f'{flood or "none":12} {variant:7} {r["skipped"]:6d}/{r["cycles"] + r["skipped"]:<6d} '
+                  f'{r["emcy"]:5d} {rate} {r["cpu"]:5.0%} {ratio:>6}', flush=True)
 
 
 if __name__ == '__main__':

@@ -12,6 +12,7 @@ from __future__ import annotations
 import concurrent.futures
 import itertools
 import logging
+import signal
 import subprocess
 import sys
 import threading
@@ -43,10 +44,10 @@ from drive_bridge.busproc.reports import (
 )
 from drive_bridge.busproc.snapshots import SnapshotCache
 from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.source import ConfigSource
 from drive_bridge.families import get_family
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
-from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.master.events import BusEvent
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.sdo import SdoPlain
@@ -167,7 +168,7 @@ class BusClient:
         if process is not None and reason != 'closed':
             try:  # the exit code says more than the closed lane (it follows within ms)
                 code = process.wait(0.05)
-                reason = f'{reason}; bus process {process.pid} exited with code {code}'
+                reason = f'{reason}; bus process {process.pid} {ending(code)}'
             except subprocess.TimeoutExpired:
                 pass
         self.lost = reason = f'bus process lost: {reason}' if reason != 'closed' else 'bus process ended'
@@ -266,6 +267,11 @@ class BusClient:
     def settings(self, **changes: object) -> None:
         if not self.lost and self.started:
             self.call_async(Settings(**changes))  # type: ignore[arg-type]
+
+    def capture(self, path: str) -> None:
+        """Start a timing capture of the bus into ``path`` ('': stop it and write the file);
+        waits until the bus process has done it."""
+        self.call(Settings(capture=path), 30.0)
 
     # -- listeners -------------------------------------------------------------------------------------
     def add_event_listener(self, listener: Callable[[BusEvent], None]) -> None:
@@ -425,5 +431,16 @@ class BusClient:
         assert process is not None
         code = process.wait()
         time.sleep(0.01)  # let a lane's end of stream name the cause first, where there is one
-        self._lost(f'it exited with code {code}' if code >= 0 else f'it was killed by signal {-code}')
+        self._lost(f'bus process {process.pid} {ending(code)}')
+
+
+def ending(code: int) -> str:
+    """How a process ended, from its exit code (negative: the signal that killed it)."""
+    if code >= 0:
+        return f'exited with code {code}'
+    try:
+        name = signal.Signals(-code).name
+    except ValueError:
+        name = 'unknown signal'
+    return f'was killed by signal {-code} ({name})'
 

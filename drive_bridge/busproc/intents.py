@@ -161,10 +161,12 @@ class Query:
 
 @dataclass(frozen=True)
 class Settings:
-    """Run-time settings: whether frames are forwarded (recording, ``~/can_frames``), and the
-    executor's PVT timing."""
+    """Run-time settings: whether frames are forwarded (recording, ``~/can_frames``), the
+    executor's PVT timing, and a timing capture of the bus to a file (``capture``: a path
+    starts it, '' stops it and writes the file; :mod:`.capture`)."""
 
     frames: bool | None = None
+    capture: str | None = None
     pvt_segment: float | None = None
     pvt_lookahead: float | None = None
 

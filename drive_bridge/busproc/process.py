@@ -43,6 +43,7 @@ class BusProcess:
         self.server: BusServer | None = None
         self.simulation: object | None = None
         self._ending = threading.Lock()
+        self.terminated = threading.Event()  # SIGTERM came
 
     def run(self) -> int:
         start = self.request_lane.recv()
@@ -115,9 +116,12 @@ class BusProcess:
         self.done.set()
 
     def _wait_for_sigterm(self) -> None:
-        term = threading.Event()
-        signal.signal(signal.SIGTERM, lambda *_: term.set())
-        term.wait()
+        self.terminated.wait()
+
+    def on_sigterm(self) -> None:
+        """SIGTERM (main thread): as if the node were gone; while axes are held, the end of the hold."""
+        self.terminated.set()
+        threading.Thread(target=self.node_lost, args=('SIGTERM',), daemon=True).start()
 
     def _release(self) -> None:
         if self.master is not None:
@@ -138,9 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     process = BusProcess(*lanes)
 
-    def on_term(_signum: int, _frame: object) -> None:
-        threading.Thread(target=process.node_lost, args=('SIGTERM',), daemon=True).start()
-    signal.signal(signal.SIGTERM, on_term)
+    signal.signal(signal.SIGTERM, lambda _signum, _frame: process.on_sigterm())
     code = process.run()
     for lane in lanes:
         lane.close()

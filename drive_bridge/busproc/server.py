@@ -19,6 +19,7 @@ from collections.abc import Callable
 from typing import Any
 
 from drive_bridge.busproc import cyclic, wire
+from drive_bridge.busproc.capture import Capture
 from drive_bridge.busproc.errors import BoundaryError
 from drive_bridge.busproc.failures import failure
 from drive_bridge.busproc.handlers import Handlers
@@ -75,6 +76,8 @@ class BusServer:
         master.add_event_listener(self.outbox.put)
         master.add_emcy_listener(self.outbox.put)
         master.add_frame_listener(self.outbox.on_frame)
+        self.capture = Capture()
+        master.add_frame_listener(self.capture.on_frame)
 
     def start(self, executor: TrajectoryExecutor) -> None:
         """Serve the lanes: the master has started (its axes exist) and ``executor`` runs them."""
@@ -271,6 +274,8 @@ class BusServer:
             self.outbox.forward_frames = settings.frames
             if not settings.frames:
                 self.outbox.frames.clear()
+        if settings.capture is not None:
+            self.capture.set(settings.capture)
         if settings.pvt_segment is not None:
             self.executor.pvt_segment = settings.pvt_segment
         if settings.pvt_lookahead is not None:

@@ -1,4 +1,4 @@
-"""The ``access`` rules applied to ROS clients' requests (see README, "What ROS clients may do").
+"""The ``access`` rules applied to ROS clients' requests (docs/faults-and-security.md, "What ROS clients may do").
 
 Only the services call this: the master's own boot and configuration writes never pass here.
 A refusal is an :class:`AccessRefused` whose message starts with the service and the rule
@@ -6,9 +6,9 @@ A refusal is an :class:`AccessRefused` whose message starts with the service and
 """
 from __future__ import annotations
 
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.families.interface import RESTORE_DEFAULT_PARAMETERS, STORE_PARAMETERS
 from drive_bridge.families.parameters import ParameterAccess
-from drive_bridge.busproc.client import BusClient
 from drive_bridge.model import AccessConfig, NodeRule, ObjectRule
 from drive_bridge.ros.errors import AccessRefused
 

@@ -200,17 +200,24 @@ def config_text(params: BridgeParameters, config: BusConfig) -> str | None:
 
 
 def declare_and_load(node: Node, config_path: str) -> tuple[BridgeParameters, BusConfig]:
-    """The node's validated parameters and bus configuration (StartupError says what is wrong)."""
+    """The node's validated parameters (with the command line's config path) and bus
+    configuration (StartupError says what is wrong)."""
     try:
         params = declare(node)
     except ParameterError as exc:
         raise StartupError(str(exc)) from None
-    return params, configuration(params, config_path)
+    params = with_config_path(params, config_path)
+    return params, configuration(params)
 
 
-def configuration(params: BridgeParameters, config_path: str) -> BusConfig:
+def with_config_path(params: BridgeParameters, config_path: str) -> BridgeParameters:
+    """The configuration file named on the command line, unless a parameter names one."""
     if not params.config and not params.config_yaml and config_path:
-        params = dataclasses.replace(params, config=config_path)
+        return dataclasses.replace(params, config=config_path)
+    return params
+
+
+def configuration(params: BridgeParameters) -> BusConfig:
     try:
         return load_config(params)
     except ConfigError as exc:

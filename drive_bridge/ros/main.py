@@ -3,6 +3,8 @@ what the console entry points run."""
 from __future__ import annotations
 
 import gc
+import os
+import time
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -11,7 +13,22 @@ from drive_bridge.ros.bridge import StartupError
 from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 
+def lower_priority(increment: int) -> None:
+    """Once the bus process runs: this (node) process yields the CPU to it (nice + increment), so
+    the SYNC cycle runs first when a client floods the node. The bus process keeps its own
+    priority (it was started before). Applied once per process."""
+    global _reniced
+    if increment > 0 and not _reniced:
+        _reniced = True
+        try:
+            os.nice(increment)
+        except OSError as exc:
+            rclpy.logging.get_logger('drive_bridge').warning(f'node_nice {increment}: {exc}')
+
+
+_reniced = False
 EXIT_BUS_LOST = 3  # the bus process ended without being asked (killed, crashed)
+BUS_LOST_LINGER = 1.0  # s the node keeps answering (refusing, with the reason) before it exits
 
 
 def run(config_path: str, args: list[str], managed: bool = False) -> int:
@@ -24,19 +41,26 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
         rclpy.logging.get_logger('drive_bridge').fatal(str(exc))
         rclpy.try_shutdown()
         return 2
+    if isinstance(node, BusLifecycleNode):  # its bus process starts at configure
+        node.on_bus_started = lower_priority
+    else:
+        lower_priority(node.params.node_nice)
     # Start-up objects never become garbage: keep full collections from walking them.
     gc.collect()
     gc.freeze()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     code = 0
+    lost_at = 0.0
     try:
         while rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
             bridge = node.bridge
             if bridge is not None and bridge.bus_lost.is_set():
-                code = EXIT_BUS_LOST
-                break
+                lost_at = lost_at or time.monotonic()
+                if time.monotonic() - lost_at >= BUS_LOST_LINGER:  # /diagnostics said it; refusals named it
+                    code = EXIT_BUS_LOST
+                    break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -22,8 +22,8 @@ from drive_bridge_interfaces.srv import ParamRead, ParamSave, ParamWrite
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
-from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
 from drive_bridge.busproc.client import BusClient
+from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.errors import RequestRefused
 from drive_bridge.ros.pool import BoundedPool, in_pool

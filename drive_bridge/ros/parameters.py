@@ -1,6 +1,6 @@
 """The bus node's ROS parameters: declared with descriptions, validated together.
 
-Two classes (README, "ROS parameters"): start-time parameters act only while the node starts
+Two classes (docs/interfaces.md, "Parameters"): start-time parameters act only while the node starts
 (lifecycle node: at configure) and are refused once it runs (configured), with the reason;
 run-time parameters (:data:`RUN_TIME`) are validated with the others and applied at once.
 """
@@ -41,6 +41,7 @@ class BridgeParameters:
     auto_enable: bool = False
     pvt_segment: float = 0.01
     pvt_lookahead: float = 0.05
+    node_nice: int = 10
 
 
 DESCRIPTIONS = {
@@ -61,6 +62,8 @@ DESCRIPTIONS = {
     'auto_enable': 'enable every axis once its node is operational',
     'pvt_segment': 'seconds between PVT points (a whole number of ms)',
     'pvt_lookahead': 'seconds of PVT points kept ahead in the drive buffer',
+    'node_nice': ('niceness the node process adds to itself once its bus process runs (0..19; bridge and '
+                  'bridge_managed only): the SYNC cycle gets the CPU before what clients make the node do'),
 }
 
 
@@ -170,6 +173,8 @@ def validate(params: BridgeParameters) -> list[str]:
         problems.append(f'parameter pvt_segment must be a positive whole number of ms, got {params.pvt_segment}')
     if params.pvt_lookahead < params.pvt_segment:
         problems.append(f'parameter pvt_lookahead must be >= pvt_segment, got {params.pvt_lookahead}')
+    if not 0 <= params.node_nice <= 19:
+        problems.append(f'parameter node_nice must be 0..19, got {params.node_nice}')
     if params.qos_depth < 1:
         problems.append(f'parameter qos_depth must be >= 1, got {params.qos_depth}')
     if params.qos_reliability not in RELIABILITIES:

@@ -25,8 +25,8 @@ from std_srvs.srv import SetBool
 
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.recorder import Recorder, RecorderStats, config_files
-from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.busproc.client import BusClient
+from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.model import BusConfig, RecordConfig
 from drive_bridge.ros.diagnostics import PREFIX, _values
 

@@ -158,7 +158,8 @@ class BridgeServices:
             assert isinstance(outcome, dict)
             failed = [j for j in names if outcome.get(j)]
             response.success, response.failed = not failed, failed
-            response.message = '; '.join(outcome[j] for j in failed) if failed else f'{name}: done for {", ".join(names)}'
+            done = f'{name}: done for {", ".join(names)}'
+            response.message = '; '.join(outcome[j] for j in failed) if failed else done
             return response
         return handle
 

@@ -21,8 +21,8 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.busproc.client import BusClient
+from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.ros.conversions import axis_state_msg, emcy_msg
 from drive_bridge.ros.diagnostics import diagnostics
 from drive_bridge.ros.frames import stamp_from_seconds, to_frame_msg
