@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import JointComponentTolerance, JointTolerance
@@ -30,6 +31,7 @@ from bridgetools import bridge_with_sim
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
