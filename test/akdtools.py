@@ -78,18 +78,6 @@ class Sniffer:
                                          f'(got {[f.data.hex(" ") for f in found]})')
                 self._cond.wait(left)
 
-    def wait_quiet(self, quiet: float = 0.2, timeout: float = 5.0) -> None:
-        """Wait until no frame came for ``quiet`` s: the bus is silent and what was sent is recorded."""
-        deadline = time.monotonic() + timeout
-        with self._cond:
-            while True:
-                count = len(self._frames)
-                self._cond.wait(quiet)
-                if len(self._frames) == count:
-                    return
-                if time.monotonic() > deadline:
-                    raise AssertionError(f'the bus did not fall silent within {timeout} s')
-
     def send(self, msg: can.Message) -> None:
         self._bus.send(msg)
 
