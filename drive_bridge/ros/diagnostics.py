@@ -22,13 +22,15 @@ def _ms(value: float) -> str:
     return f'{value * 1000:.2f} ms'
 
 
-def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '') -> DiagnosticStatus:
+def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '',
+               boundary: dict[str, object] | None = None) -> DiagnosticStatus:
     status = DiagnosticStatus(name=f'{PREFIX}: bus {snapshot.channel}', hardware_id=f'can {snapshot.channel}')
     traffic = snapshot.traffic
     values = dict(node=node_name, bus_state=snapshot.bus_state, rx_frames=traffic.rx_frames,
                   tx_frames=traffic.tx_frames, frames_per_second=f'{traffic.frames_per_second:.0f}',
                   bus_load=f'{traffic.load * 100:.1f} % (nominal, no stuff bits)')
     status.level, status.message = OK, 'bus open'
+    values.update(boundary or {})
     health = snapshot.health
     if health is not None:
         values.update(recv_errors=health.recv_errors, send_errors=health.send_errors,
@@ -99,9 +101,10 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     return status
 
 
-def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '') -> DiagnosticArray:
-    """``lost``: why the bus process is gone ('' while it runs)."""
+def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '',
+                boundary: dict[str, object] | None = None) -> DiagnosticArray:
+    """``lost``: why the bus process is gone ('' while it runs); ``boundary``: its figures."""
     array = DiagnosticArray()
-    array.status = [bus_status(snapshot, node_name, lost), *(node_status(n) for n in snapshot.nodes),
+    array.status = [bus_status(snapshot, node_name, lost, boundary), *(node_status(n) for n in snapshot.nodes),
                     *(axis_status(a) for a in snapshot.axes)]
     return array

@@ -147,9 +147,11 @@ class RecordControl:
         while path.exists():
             path, suffix = base / f'{name}_{suffix}', suffix + 1
         split_bytes = round(self.params.split_size_mb * 1e6) or None
+        since = self.master.frame_drops  # the boundary's count: this recording's share from now
         self.recorder = Recorder(path, channel=channel, split_bytes=split_bytes,
                                  split_seconds=self.params.split_seconds or None, config_yaml=self.config_text,
-                                 files=config_files(self.config))
+                                 files=config_files(self.config),
+                                 upstream_drops=lambda: self.master.frame_drops - since)
         self._listener = self.recorder.on_frame
         self.master.add_frame_listener(self._listener)
         self.node.get_logger().info(f'recording to {path}')
@@ -208,12 +210,15 @@ class RecordControl:
             return status
         recording = self.recorder is not None
         status.values = _values(recording=recording, path=stats.path, frames=stats.frames, messages=stats.messages,
-                                dropped=stats.dropped, queued=stats.queued, bytes=stats.bytes, split=stats.split,
+                                dropped=stats.dropped, dropped_upstream=stats.dropped_upstream, queued=stats.queued,
+                                bytes=stats.bytes, split=stats.split,
                                 closed_splits=stats.splits, error=stats.error)
         if stats.error:
             status.level, status.message = DiagnosticStatus.ERROR, f'recording failed: {stats.error}'
-        elif stats.dropped:
-            status.level, status.message = DiagnosticStatus.WARN, f'{stats.dropped} frames/messages dropped'
+        elif stats.dropped or stats.dropped_upstream:
+            status.level, status.message = DiagnosticStatus.WARN, (
+                f'{stats.dropped + stats.dropped_upstream} frames/messages dropped '
+                f'({stats.dropped_upstream} before the recorder, in the bus process)')
         else:
             status.level = DiagnosticStatus.OK
             status.message = f'recording to {stats.path}' if recording else f'stopped; last bag {stats.path}'
