@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
@@ -23,7 +24,7 @@ def _ms(value: float) -> str:
 
 
 def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '',
-               boundary: dict[str, object] | None = None) -> DiagnosticStatus:
+               boundary: Mapping[str, object] | None = None) -> DiagnosticStatus:
     status = DiagnosticStatus(name=f'{PREFIX}: bus {snapshot.channel}', hardware_id=f'can {snapshot.channel}')
     traffic = snapshot.traffic
     values = dict(node=node_name, bus_state=snapshot.bus_state, rx_frames=traffic.rx_frames,
@@ -102,7 +103,7 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
 
 
 def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '',
-                boundary: dict[str, object] | None = None) -> DiagnosticArray:
+                boundary: Mapping[str, object] | None = None) -> DiagnosticArray:
     """``lost``: why the bus process is gone ('' while it runs); ``boundary``: its figures."""
     array = DiagnosticArray()
     array.status = [bus_status(snapshot, node_name, lost, boundary), *(node_status(n) for n in snapshot.nodes),
