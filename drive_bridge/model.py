@@ -126,6 +126,9 @@ class AxisLimits:
     max_velocity: float | None = None
     max_acceleration: float | None = None
     max_effort: float | None = None
+    on_violation: str = 'halt'  # what holds the axis when a set-point breaks a limit: halt or quick_stop
+    # where each limit came from, for the start-up line: 'config', or the drive object read at boot
+    sources: Mapping[str, str] = field(default_factory=dict, compare=False)
 
 
 @dataclass(frozen=True)
@@ -339,6 +342,13 @@ class RecordConfig:
 
 
 @dataclass(frozen=True)
+class TrajectoryConfig:
+    """How trajectories beyond the joints' limits are treated (the ``trajectory`` section)."""
+
+    scale_to_limits: bool = False  # stretch the segments in time instead of refusing the trajectory
+
+
+@dataclass(frozen=True)
 class BusConfig:
     """One bus: interface, master, nodes and their axes."""
 
@@ -348,6 +358,7 @@ class BusConfig:
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
     access: AccessConfig = field(default_factory=AccessConfig)
     record: RecordConfig = field(default_factory=RecordConfig)
+    trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
     path: Path | None = None
     warnings: tuple[str, ...] = ()  # accepted but ignored keys (e.g. ros2_canopen ones), each located
     allow_overload: bool = False  # bus.allow_overload: run a configuration the bus cannot carry

@@ -87,11 +87,13 @@ def test_each_axis_moves_in_pp_pv_csp_and_csv(joint: str) -> None:
         assert axis.snapshot().position == pytest.approx(p0 + rate * 0.5, abs=0.01 * span)
         assert abs(drive.following_error) < 20000  # inside the following error window (0x6065)
 
-        # cyclic synchronous velocity
+        # cyclic synchronous velocity: a trapezoid within the drive's max acceleration (0x60C5,
+        # the joint's limit; a step would be refused by the cycle check)
         axis.set_mode('csv')
         before = axis.snapshot().position
         t0 = time.time()
-        axis.set_setpoint_source(lambda t: Setpoint(velocity=-rate if t - t0 < 0.5 else 0.0))
+        axis.set_setpoint_source(lambda t: Setpoint(
+            velocity=-rate * max(0.0, min(1.0, (t - t0) / 0.1, (0.6 - (t - t0)) / 0.1))))
         time.sleep(0.8)
         moved = axis.snapshot().position - before
         assert moved == pytest.approx(-rate * 0.5, rel=0.15)

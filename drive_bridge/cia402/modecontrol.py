@@ -24,10 +24,12 @@ from drive_bridge.cia402.modes import (
     parse_mode,
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
+from drive_bridge.cia402.setpoint_check import check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
+from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
@@ -78,6 +80,8 @@ class ModeControl:
     _loop: PositionLoop | None  # the bridge's position loop (velocity modes, 'position-loop' strategy)
     _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
     _mode_problem: str  # why the axis has no usable mode ('' when it has one)
+    _guard: SetpointGuard  # the last check of every commanded set-point
+    _setpoint_refused: str  # why the last set-point was refused ('' since the axis was enabled again)
 
     # provided by the state-machine driver
     @property
@@ -97,6 +101,9 @@ class ModeControl:
         raise NotImplementedError
 
     def _fault_text(self) -> str:
+        raise NotImplementedError
+
+    def _quick_stop_from_cycle(self) -> None:
         raise NotImplementedError
 
     # -- each cycle -------------------------------------------------------------------------
@@ -148,12 +155,15 @@ class ModeControl:
                 self._ip_point = None
                 self._loop_target = None
                 self._stale = False
-            return hold if not self._targets else {**hold, **self._targets}
+            written = hold if not self._targets else {**hold, **self._targets}
+            seed_hold(self._guard, self.config, written, now)
+            return written
         if self._source is not None:
             setpoint = self._source(now)
             if setpoint is not None:
                 self._apply_setpoint(setpoint)
         looped = self._loop_target is not None and self._looped()
+        stale = self._stale
         if (mode in CYCLIC_MODES or looped) and self._last_command and \
                 time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
             self._stale = True
@@ -166,7 +176,37 @@ class ModeControl:
                 self._targets['target_position'] = int(actual)
         if looped and actual is not None:
             self._close_loop(actual)
+        if self._stale and not stale:  # the dead-man holds where the drive is: no step to check
+            seed_hold(self._guard, self.config, self._targets, now)
+        else:
+            problem = check_targets(self._guard, self.config, mode, looped, self._targets, self._ip_point, now)
+            if problem is not None:
+                self._refuse_setpoint(problem, actual)
         return dict(self._targets)
+
+    def _refuse_setpoint(self, problem: str, actual: int | float | None) -> None:
+        """A set-point beyond the limits is never written: the stream or command is dropped,
+        the targets hold the last good position (else the measured one), the axis is held
+        (HALT or quick stop, ``limits.on_violation``) and the cause reported once."""
+        last = self._guard.last.get('position')
+        scaling = self.config.scaling
+        hold = scaling.position_to_device(last[0]) if last is not None else actual
+        self._source = None
+        self._feeder = None
+        self._ip_point = None
+        self._loop_target = None
+        self._targets = {'target_velocity': 0, 'target_torque': 0}
+        if hold is not None:
+            self._targets['target_position'] = int(hold)
+        reaction = self.config.limits.on_violation
+        if reaction == 'quick_stop':
+            self._quick_stop_from_cycle()
+        else:
+            self._halt = True
+        self._setpoint_refused = (f'set-point refused before it was written: {problem}; axis held '
+                                  f'({"quick stop" if reaction == "quick_stop" else "HALT"}, limits.on_violation)')
+        self._message = self._setpoint_refused
+        self.node.report_setpoint_refused(self.config.joint, f'{self._where()}: {self._setpoint_refused}')
 
     def _close_loop(self, actual: int | float) -> None:
         """One step of the bridge's position loop: 0x60FF from the desired state and the
@@ -225,7 +265,7 @@ class ModeControl:
             raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not supported by the drive '
                             f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
 
-    def on_booted(self) -> str:
+    def _settle_mode(self) -> str:
         """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
         configured one, or the best the drive can stream when the config names none); returns
         the start-up line saying which and why ('' when the family decides the modes)."""

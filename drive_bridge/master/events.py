@@ -21,6 +21,7 @@ class EventKind(str, Enum):
     BUS_ERROR = 'bus_error'
     BUS_BACK = 'bus_back'
     UNKNOWN_FRAMES = 'unknown_frames'
+    SETPOINT_REFUSED = 'setpoint_refused'  # the cycle's last check held an axis (joint in ``joint``)
     ERROR = 'error'
 
 
@@ -38,6 +39,7 @@ class BusEvent:
     node_id: int = 0
     node_name: str = ''
     timestamp: float = field(default_factory=time.time)
+    joint: str = ''  # the joint it concerns, where one
 
     def __str__(self) -> str:
         return self.message

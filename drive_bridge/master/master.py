@@ -130,8 +130,9 @@ class Master:
         SYNC are in (CAN thread, keep it short); not in a cycle where one is missing."""
         self.feedback.add_listener(listener)
 
-    def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None) -> None:
-        event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '')
+    def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None,
+              joint: str = '') -> None:
+        event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '', joint=joint)
         self.events = [*self.events[-199:], event]
         if not self._event_listeners:  # a listener reports events itself: print each line once
             getattr(log, {'info': 'info', 'warn': 'warning', 'error': 'error'}[level.value])(message)
@@ -149,6 +150,9 @@ class Master:
                 listener(event)
             except Exception as exc:
                 log.error('EMCY listener failed: %r', exc)
+
+    def _setpoint_refused(self, node: NodeRuntime, joint: str, text: str) -> None:
+        self._emit(EventKind.SETPOINT_REFUSED, Level.ERROR, text, node, joint)
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -172,6 +176,7 @@ class Master:
                            f'node {node.node_id} ({node.name}): {node_cfg.pdo_summary}', node)
             node.attach_guard()
             node.sync_count = self._sync_count
+            node.on_setpoint_refused = functools.partial(self._setpoint_refused, node)
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,

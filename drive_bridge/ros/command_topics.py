@@ -18,6 +18,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import JointError
+from drive_bridge.master.events import BusEvent, EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.message_limits import (
@@ -68,6 +69,11 @@ class CommandTopics:
             self._last_log[topic] = now
             self.node.get_logger().warning(text)
 
+    def on_event(self, event: BusEvent) -> None:
+        """A set-point the cycle refused (whatever produced it) is a refused command too."""
+        if event.kind is EventKind.SETPOINT_REFUSED:
+            self.errors.publish(String(data=f'cycle check: refused: {event.message}'))
+
     def _inactive(self, topic: str) -> bool:
         if not self.active:
             self.refuse(topic, 'the bridge is not active (deactivated or not configured)')
@@ -93,9 +99,10 @@ class CommandTopics:
             self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
             return
         if handle is not None:
+            notes = ''.join(f'; {note}' for note in handle.notes)
             self.node.get_logger().info(
                 f'trajectory {handle.id}: {len(msg.points)} point(s) for {", ".join(handle.joints)}, '
-                f'{handle.end - handle.start:.3f} s')
+                f'{handle.end - handle.start:.3f} s{notes}')
 
     # -- direct commands -------------------------------------------------------------------------
     def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:

@@ -134,7 +134,7 @@ class TrajectoryAction:
                            for j, tol in final['velocity'].items() if abs(actual[j].velocity) > tol]
                 if not misses:
                     goal.succeed()
-                    return self._result(Result.SUCCESSFUL, '')
+                    return self._result(Result.SUCCESSFUL, '; '.join(handle.notes))
                 if now > handle.end + settle:
                     goal.abort()
                     return self._result(Result.GOAL_TOLERANCE_VIOLATED,

@@ -54,6 +54,7 @@ from drive_bridge.families.opendrive.units import Units
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
+from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
 
 PV = int(Mode.PROFILE_VELOCITY)
@@ -107,6 +108,8 @@ class RunLogicDriver:
         self._stale = False
         self._message = ''
         self._written: dict[Key, int] = {}
+        self._guard = SetpointGuard(cycle_period)
+        self._refused = ''  # why the cycle check last refused a reference
         self._reset_mark: EmcyEvent | None = None  # the newest EMCY at the last fault reset: it and older are history
         # position: unwrapped counts of the configured quantity, or integrated velocity (rad)
         self._counts = 0
@@ -213,6 +216,9 @@ class RunLogicDriver:
                 self._speed = self._torque = 0
             else:
                 self._follow(now)
+                self._check_references(now)
+            if not enabled or self._halt:
+                self._guard.seed('velocity', 0.0, now)
             speed = self._speed if self._mode == PV else 0
             torque = self._torque if self._mode == PT else 0
             word = self._base | (od.RUN_BIT if self._run else 0)
@@ -223,6 +229,31 @@ class RunLogicDriver:
         self._write('logic', word)
         self._write('speed', speed)
         self._write('torque_reference', torque)
+
+    def _check_references(self, now: float) -> None:
+        """The last check of this cycle's reference (``joint.setpoint_guard``): beyond the
+        joint's limits, or (streamed through the bridge's loop) changed faster than they allow,
+        it is never written; the axis is halted (references 0, RUN kept) or, with
+        ``limits.on_violation: quick_stop``, stopped (RUN low), and the cause reported."""
+        limits, units = self.config.limits, self.units
+        streamed = self._source is not None and self._looped()
+        if self._mode == PV:
+            problem = self._guard.check(limits, 'velocity', self._speed * units.reference_per_unit, now,
+                                        abs(units.reference_per_unit), streamed)
+        else:
+            problem = self._guard.check(limits, 'effort', self._torque * units.torque_per_unit, now,
+                                        abs(units.torque_per_unit), False)
+        if problem is None:
+            return
+        self._clear_commands()
+        if self.config.limits.on_violation == 'quick_stop':
+            self._run = False
+        else:
+            self._halt = True
+        self._refused = (f'set-point refused before it was written: {problem}; axis held '
+                         f'({"RUN low" if not self._run else "references 0, RUN kept"}, limits.on_violation)')
+        self._message = self._refused
+        self.node.report_setpoint_refused(self.joint, f'{self._where()}: {self._refused}')
 
     def _clear_commands(self) -> None:
         """References 0, no stream, no dead-man running (under the lock)."""
@@ -349,7 +380,7 @@ class RunLogicDriver:
         with self._cond:
             self._run, self._confirmed, self._halt = True, False, False
             self._clear_commands()
-            self._message = ''
+            self._message = self._refused = ''
         wait = timeout if timeout is not None else self.timeouts.state_switch
 
         def confirmed() -> bool:
@@ -393,6 +424,8 @@ class RunLogicDriver:
         with self._cond:
             self._halt = on
             self._clear_commands()
+            if not on and self._refused:
+                self._message = self._refused = ''
 
     def reset_fault(self, timeout: float | None = None) -> None:
         """A rising edge of the alarm reset function; done when 0x2018 reads 0 or the reset EMCY
@@ -597,4 +630,4 @@ class RunLogicDriver:
             position=position, velocity=velocity, effort=effort, stamp=stamp,
             fault=bool(alarms), warning=False, target_reached=False, internal_limit=False,
             following_error=False, halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
-            message='; '.join(notes))
+            message='; '.join(notes), setpoint_refused=self._refused)
