@@ -113,7 +113,7 @@ def test_injected_fault_is_decoded_and_reset_on_the_rising_edge() -> None:
         eventually(lambda: axis.snapshot().state is State.FAULT, 2.0, 'FAULT state')
         snapshot = axis.snapshot()
         assert snapshot.fault and snapshot.last_emcy is not None and snapshot.last_emcy.code == 0x2310
-        with pytest.raises(AxisError, match='reset the fault first') as refused:
+        with pytest.raises(AxisError, match='clear it with ~/fault_reset') as refused:
             axis.enable(timeout=0.5)
         assert 'continuous over-current' in str(refused.value)
         axis.reset_fault(timeout=2.0)

@@ -511,7 +511,7 @@ def test_a_following_error_beyond_pemax_is_a_category_2_fault_cleared_by_a_bit_1
         assert snapshot.drive_state is DriveState.FAULT and snapshot.state is State.FAULT and snapshot.fault
         assert snapshot.last_emcy is not None and snapshot.last_emcy.code == 0x8611
         assert sdo_statusword_never_fault(sniffer)
-        with pytest.raises(AxisError, match='reset the fault first'):
+        with pytest.raises(AxisError, match='clear it with ~/fault_reset'):
             axis.enable()
         mark = sniffer.mark
         axis.reset_fault(timeout=3.0)

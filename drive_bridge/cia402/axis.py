@@ -26,6 +26,7 @@ from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, SetpointSource
+from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.errors import DriveBridgeError
@@ -52,6 +53,10 @@ DRIVE_STATE = {
     State.FAULT_REACTION_ACTIVE: DriveState.STOPPING,
     State.FAULT: DriveState.FAULT,
 }
+
+
+def _sdo_number(value: int | float | str | bytes) -> int | None:
+    return None if isinstance(value, (str, bytes)) else int(value)
 
 
 class Axis(ModeControl):
@@ -308,7 +313,7 @@ class Axis(ModeControl):
     def _go_to(self, target: State, timeout: float | None) -> None:
         self._require_available()
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
-            raise AxisError(f'{self._where()}: in {self.state.label}{self._fault_text()}; reset the fault first')
+            raise AxisError(f'{self._where()}: {self.fault_description()}')
         with self._cond:
             self._target_state = target
         wait = timeout if timeout is not None else self.timeouts.state_switch * 4
@@ -401,6 +406,24 @@ class Axis(ModeControl):
             self._limits_said = said
             lines.append(said)
         return '; '.join(line for line in lines if line)
+
+    def fault_description(self) -> str:
+        """The last EMCY and the drive's error code 0x603F (mapped, else read by SDO), the way out."""
+        details = []
+        code = self._value('error_code') if self.node.has_object(*self.key['error_code']) else None
+        if code is None and self.node.has_object(*self.key['error_code']):
+            try:
+                code = _sdo_number(self.node.sdo_read(*self.key['error_code']))
+            except DriveBridgeError:
+                code = None
+        if code:
+            details.append(f'0x603F error code 0x{int(code):04X}')
+        return fault_refusal(self.last_emcy(), details)
+
+    def _way_out(self) -> str:
+        if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+            return self.fault_description()
+        return 'enable it first (~/enable)'
 
     # -- state ------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:

@@ -24,7 +24,7 @@ from drive_bridge.cia402.modes import (
     parse_mode,
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
-from drive_bridge.cia402.setpoint_check import check_targets, seed_hold
+from drive_bridge.cia402.setpoint_check import check_targets, cyclic, seed_hold
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
@@ -447,7 +447,30 @@ class ModeControl:
         if not self.node.available:
             raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
         if self.state is not State.OPERATION_ENABLED:
-            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; enable it first')
+            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; {self._way_out()}')
+        self._check_step(position, velocity)
+
+    def _way_out(self) -> str:
+        raise NotImplementedError
+
+    def _check_step(self, position: float | None, velocity: float | None) -> None:
+        """A direct command the cycle check would refuse is refused here, before it is applied:
+        the axis is held since a refused set-point, or the command is a step larger than one
+        cycle allows in a mode the bridge feeds set-point by set-point."""
+        if self._setpoint_refused:
+            raise AxisError(f'{self._where()}: held since a set-point was refused ({self._setpoint_refused}); '
+                            'resume it (~/resume) or enable it again before commanding it')
+        looped = self._looped()
+        if looped or not cyclic(self._mode, looped):
+            return
+        scaling = self.config.scaling
+        problem = None
+        if position is not None:
+            problem = self._guard.step_problem(self.config.limits, 'position', position, abs(scaling.position_factor))
+        elif velocity is not None and self._mode in VELOCITY_MODES:
+            problem = self._guard.step_problem(self.config.limits, 'velocity', velocity, abs(scaling.velocity_factor))
+        if problem is not None:
+            raise AxisError(f'{self._where()}: {problem}')
 
     def command(self, position: float | None = None, velocity: float | None = None,
                 effort: float | None = None) -> None:

@@ -52,6 +52,16 @@ class SetpointGuard:
             self.last[kind] = (value, now)
         return problem
 
+    def step_problem(self, limits: AxisLimits, kind: str, value: float, resolution: float = 0.0) -> str | None:
+        """Why a direct command of ``value`` would be refused by the next cycle (a step from the
+        set-point in force larger than one cycle allows), None if it would pass; nothing recorded."""
+        previous = self.last.get(kind)
+        if previous is None:
+            return None
+        problem = self._change(limits, kind, value, previous[1] + self.cycle_period, resolution)
+        return None if problem is None else (f'{problem}: a step the next cycle would refuse; command a ramp '
+                                             '(or a trajectory)')
+
     def _change(self, limits: AxisLimits, kind: str, value: float, now: float, resolution: float) -> str | None:
         key = RATE_OF.get(kind)
         previous = self.last.get(kind)

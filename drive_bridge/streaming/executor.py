@@ -87,9 +87,11 @@ class TrajectoryExecutor:
             if not snapshot.available:
                 raise TrajectoryError(f'{source}: joint {joint} is not available (node {snapshot.node_id} '
                                       f'NMT {snapshot.nmt_state})')
+            if snapshot.drive_state is DriveState.FAULT:
+                raise TrajectoryError(f'{source}: joint {joint} is {axis.fault_description()}')
             if snapshot.drive_state is not DriveState.ENABLED:
                 raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state_label}, not operation '
-                                      'enabled; enable it first')
+                                      'enabled; enable it first (~/enable)')
             try:  # first: the driver's own reason (e.g. a mode the drive lacks)
                 axis.check_trajectory(*fields)
             except JointError as exc:

@@ -52,6 +52,7 @@ from drive_bridge.families.opendrive.alarms import alarm_text, emcy_alarm_word
 from drive_bridge.families.opendrive.options import DriveOptions
 from drive_bridge.families.opendrive.units import Units
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
@@ -376,7 +377,7 @@ class RunLogicDriver:
         """Fieldbus RUN high; done when the drive reads RUN back high (0x2021 bit 0)."""
         self._require_available()
         if self._alarms():
-            raise RunLogicError(f'{self._where()}: in fault, {self._fault_text()}; reset the fault first')
+            raise RunLogicError(f'{self._where()}: {self.fault_description()}')
         with self._cond:
             self._run, self._confirmed, self._halt = True, False, False
             self._clear_commands()
@@ -517,8 +518,10 @@ class RunLogicDriver:
                                     f'{self.options.rated_torque:g} N·m): refused, not wrapped')
         if not self.node.available:
             raise RunLogicError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
+        if self.drive_state is DriveState.FAULT:
+            raise RunLogicError(f'{self._where()}: {self.fault_description()}')
         if self.drive_state is not DriveState.ENABLED:
-            raise RunLogicError(f'{self._where()}: {self._state_text()}, not enabled; enable it first')
+            raise RunLogicError(f'{self._where()}: {self._state_text()}, not enabled; enable it first (~/enable)')
         if self._halt:
             raise RunLogicError(f'{self._where()}: halted (references 0); resume first')
 
@@ -586,6 +589,11 @@ class RunLogicDriver:
 
     def is_stream_fault(self, event: EmcyEvent) -> bool:
         return False
+
+    def fault_description(self) -> str:
+        """The alarms (0x2018) and the last EMCY, and the way out."""
+        alarms = self._alarms()
+        return fault_refusal(self.last_emcy(), [self._fault_text()] if alarms else [])
 
     # -- state -----------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:
