@@ -303,6 +303,16 @@ class ModeControl:
         self._check_supported(code)
         if code == Mode.INTERPOLATED_POSITION:
             self._prepare_interpolation()
+        previous = self._mode
+        self._request_mode(code)
+        wait = timeout if timeout is not None else self.timeouts.mode_switch
+        try:
+            self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+        except AxisError as exc:
+            raise AxisError(f'{exc}; {self._restore_mode(previous, code)}') from None
+        self._mode_problem = ''  # the drive took it
+
+    def _request_mode(self, code: int) -> None:
         with self._cond:
             if code != self._mode:
                 self._targets.clear()
@@ -312,9 +322,22 @@ class ModeControl:
                 self._loop_target = None
                 self._pp_phase = PP_IDLE
             self._mode = code
-        wait = timeout if timeout is not None else self.timeouts.mode_switch
-        self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
-        self._mode_problem = ''  # the drive took it
+
+    def _restore_mode(self, previous: int, refused: int) -> str:
+        """A mode the drive did not confirm: the previous one is requested again; if the drive
+        does not confirm that either, the axis is halted (the mode it runs is unknown)."""
+        self._request_mode(previous)
+        try:
+            self._wait(lambda: self._value('mode_display') == previous, self.timeouts.mode_switch,
+                       f'previous mode {mode_name(previous)} (0x6061)')
+        except AxisError:
+            with self._cond:
+                self._halt = True
+                self._message = (f'mode {mode_name(refused)} not confirmed and the previous mode '
+                                 f'{mode_name(previous)} not either (0x6061 = {self._value("mode_display")}): '
+                                 'axis held (HALT)')
+            return f'the previous mode {mode_name(previous)} was not confirmed either: axis held (HALT)'
+        return f'the previous mode {mode_name(previous)} is restored'
 
     def _write_interpolation_period(self, interpolated: bool) -> None:
         """The SYNC period into 0x60C2 (CSP and IP interpolate over it), and for IP the

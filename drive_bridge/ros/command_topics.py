@@ -21,6 +21,7 @@ from drive_bridge.joint import JointError
 from drive_bridge.master.events import BusEvent, EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
+from drive_bridge.ros.message_checks import NonFinite, check_joint_commands, check_trajectory_points
 from drive_bridge.ros.message_limits import (
     MalformedMessage,
     MessageTooLarge,
@@ -94,6 +95,11 @@ class CommandTopics:
             self.refuse(topic, str(MalformedMessage(f'not a trajectory_msgs/JointTrajectory: {exc}')))
             return
         try:
+            check_trajectory_points(msg.points)
+        except NonFinite as exc:
+            self.refuse(topic, str(exc))
+            return
+        try:
             handle = self.executor.submit(trajectory_from_msg(msg), topic)
         except TrajectoryError as exc:
             self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
@@ -146,6 +152,11 @@ class CommandTopics:
             if values and len(values) != len(msg.name):
                 self.refuse(topic, f'{len(values)} {field} value(s) for {len(msg.name)} name(s)')
                 return
+        try:
+            check_joint_commands(msg.name, {f: getattr(msg, f) for f in ('position', 'velocity', 'effort')})
+        except NonFinite as exc:
+            self.refuse(topic, str(exc))
+            return
         commands: dict[str, dict[str, float | None]] = {}
         for i, joint in enumerate(msg.name):
             wanted = self.master.axes[joint].command_field()

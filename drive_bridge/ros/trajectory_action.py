@@ -22,8 +22,10 @@ from rclpy.node import Node
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drive_bridge.master.master import Master
+from drive_bridge.ros.callback_guard import failures_of, guard_execute, guard_goal
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
 from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.ros.message_checks import NonFinite, check_tolerances, check_trajectory_points
 from drive_bridge.ros.message_limits import MessageTooLarge, check_trajectory_size
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import TrajectoryError
@@ -46,8 +48,11 @@ class TrajectoryAction:
         self.executor = executor
         self.active = True
         self._current: ServerGoalHandle | None = None
+        failures = failures_of(node)
         self.server = ActionServer(node, FollowJointTrajectory, '~/follow_joint_trajectory',
-                                   execute_callback=self.execute, goal_callback=self.on_goal,
+                                   execute_callback=guard_execute(failures, self.execute,
+                                                                  lambda text: self._result(Result.INVALID_GOAL, text)),
+                                   goal_callback=guard_goal(failures, self.on_goal),
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT,
                                    callback_group=ReentrantCallbackGroup())
 
@@ -74,6 +79,13 @@ class TrajectoryAction:
         try:  # before any per-point work
             check_trajectory_size(len(request.trajectory.joint_names), len(request.trajectory.points))
         except MessageTooLarge as exc:
+            goal.abort()
+            return self._result(Result.INVALID_GOAL, str(exc))
+        try:
+            check_trajectory_points(request.trajectory.points)
+            check_tolerances('path', request.path_tolerance)
+            check_tolerances('goal', request.goal_tolerance)
+        except NonFinite as exc:
             goal.abort()
             return self._result(Result.INVALID_GOAL, str(exc))
         joints = list(request.trajectory.joint_names)

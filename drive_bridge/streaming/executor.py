@@ -139,7 +139,11 @@ class TrajectoryExecutor:
         with self._lock:
             def states(at: float) -> dict[str, JointSample]:
                 return {j: self._start_state(j, at) for j in (*trajectory.joints, *held)}
-            planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source, committed)
+            # set-points are sampled one cycle ahead: a motion starting before the next cycle would
+            # make its first set-point catch up the time since, in one cycle (a step)
+            earliest = now + self.cycle_period
+            planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source,
+                           max(committed, earliest))
             start, splines = planned.start, planned.splines
             end = start + planned.duration
             for joint in held:  # partial goal: the other joints hold their desired position
