@@ -14,9 +14,10 @@ from typing import Any
 
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.reader import Section, describe, parse_int_text, suggestion
-from drive_bridge.model import EVERY_OBJECT, AccessConfig, NodeRule, ObjectRange, ObjectRule
+from drive_bridge.model import EVERY_OBJECT, AccessConfig, NodeRule, ObjectRange, ObjectRule, SafetyAllowance, safety_name
 
-ACCESS = ('read_only', 'sdo_read', 'sdo_write', 'store_restore', 'nmt', 'param_read', 'param_write', 'param_save')
+ACCESS = ('read_only', 'sdo_read', 'sdo_write', 'store_restore', 'nmt', 'param_read', 'param_write', 'param_save',
+          'safety_objects')
 OBJECT_RULES = ('sdo_read', 'sdo_write')
 NODE_RULES = ('store_restore', 'nmt', 'param_read', 'param_write', 'param_save')
 WRITE_RULES = ('sdo_write', 'store_restore', 'nmt', 'param_write', 'param_save')
@@ -103,6 +104,53 @@ def _node_rule(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int]) -> 
     return NodeRule(node_ids=frozenset(n for n in found if n is not None), given=True)
 
 
+def _is_range(text: str) -> bool:
+    match = _RANGE.match(text)
+    return match is not None and _index(match.group(1)) is not None and (
+        match.group(2) is None or _index(match.group(2)) is not None)
+
+
+def _safety_items(issues: Issues, value: Any, loc: Loc) -> tuple[tuple[ObjectRange, ...], frozenset[str]]:
+    """Indices and ranges (objects) and vendor parameter names, mixed in one list."""
+    if value is False or value is None:
+        return (), frozenset()
+    if not isinstance(value, list):
+        issues.error(loc, f'expected a list of object indices ("0x6007"), ranges and vendor parameter names '
+                          f'("p8641"), or true/false, got {describe(value)}')
+        return (), frozenset()
+    ranges: list[ObjectRange] = []
+    names: set[str] = set()
+    for i, item in enumerate(value):
+        if isinstance(item, str) and not _is_range(item):
+            if not item.strip():
+                issues.error(loc.item(i), 'expected an object index or a parameter name, got an empty string')
+            else:
+                names.add(safety_name(item))
+            continue
+        found = _range(issues, item, loc.item(i))
+        if found is not None:
+            ranges.append(found)
+    return tuple(ranges), frozenset(names)
+
+
+def _safety(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int]) -> SafetyAllowance:
+    if value is True:
+        return SafetyAllowance(every=True)
+    if not isinstance(value, Mapping):
+        return SafetyAllowance(default=_safety_items(issues, value, loc))
+    default: tuple[tuple[ObjectRange, ...], frozenset[str]] = ((), frozenset())
+    nodes = {}
+    for key, item in value.items():
+        where = loc.key(key)
+        if key == 'default':
+            default = _safety_items(issues, item, where)
+            continue
+        node_id = _node_id(issues, key, where, ids)
+        if node_id is not None:
+            nodes[node_id] = _safety_items(issues, item, where)
+    return SafetyAllowance(default=default, nodes=nodes)
+
+
 def parse_access(sec: Section | None, ids: Mapping[str, int]) -> AccessConfig:
     """The ``access`` section (None: the defaults); ``ids``: configured node name -> id."""
     base = AccessConfig()
@@ -116,6 +164,8 @@ def parse_access(sec: Section | None, ids: Mapping[str, int]) -> AccessConfig:
     for key in NODE_RULES:
         if key in sec:
             rules[key] = _node_rule(sec.issues, sec.get(key), sec.loc(key), ids)
+    if 'safety_objects' in sec:
+        rules['safety_objects'] = _safety(sec.issues, sec.get('safety_objects'), sec.loc('safety_objects'), ids)
     if rules['read_only']:
         for key in WRITE_RULES:
             if key in sec:

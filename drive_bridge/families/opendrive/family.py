@@ -48,7 +48,7 @@ from drive_bridge.families.interface import DATA_DIR, DriveFamily, Liveness
 from drive_bridge.families.opendrive import alarms, objects as od
 from drive_bridge.families.opendrive.driver import RunLogicDriver
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
-from drive_bridge.families.opendrive.parameters import OpenDriveParameters
+from drive_bridge.families.opendrive.parameters import SAFETY_PARAMETERS, OpenDriveParameters
 from drive_bridge.families.parameters import ParameterError, ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
@@ -84,6 +84,9 @@ class OpenDrive(DriveFamily):
 
     name = 'opendrive'
     description = 'OPEN drive converter (CiA 301 only: RUN logic, CAN references, node guarding)'
+    # the drive keeps its last RUN and references when its master goes silent (appendix §2.4: no
+    # action on a life-guarding timeout in the default firmware, no heartbeat, no RPDO timeout)
+    runs_on_without_master = True
     default_eds = DATA_DIR / 'opendrive.eds'
     has_cia402 = False
     has_heartbeat = False
@@ -132,6 +135,19 @@ class OpenDrive(DriveFamily):
         tpdos = tuple(PdoConfig(n, predefined_cob_id('tpdo', n, node_id), transmission=tx_type, event_timer=timer,
                                 mapping=m) for n, m in ((1, tx1), (2, tx2)) if m)
         return rpdos, tpdos
+
+    def safety_object(self, config: NodeConfig | None, index: int, subindex: int) -> str | None:
+        """CiA 301's, and P162 (node id) and C48 (bit rate) in the parameter arrays."""
+        offset = 0
+        if config is not None and config.axes:
+            try:
+                offset = DriveOptions.of(config.axes[0].drive).array_offset
+            except ValueError:
+                offset = 0
+        for (letter, number), text in SAFETY_PARAMETERS.items():
+            if (index, subindex) == ((od.PARAMETERS if letter == 'P' else od.CONNECTIONS), number + offset):
+                return text
+        return super().safety_object(config, index, subindex)
 
     # -- the joint driver ---------------------------------------------------------------------
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
