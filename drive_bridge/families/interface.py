@@ -340,6 +340,12 @@ class DriveFamily:
     # no RPDO timeout, no action on a guarding loss): the bridge must stop it itself
     runs_on_without_master: ClassVar[bool] = False
 
+    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
+        """A drive that runs on by itself (``runs_on_without_master``) whose master liveness is
+        lost while it still sends: put its stop into this cycle's process data (``by_sdo``: write it
+        by SDO too, supervisor thread); True once the drive reports it is at rest."""
+        return True
+
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """An SDO write of this object stores the node's parameters in non-volatile memory or
         restores them (CiA 301: 0x1010, 0x1011; a family adds its own save and restore commands).

@@ -21,6 +21,7 @@ class EventKind(str, Enum):
     BUS_ERROR = 'bus_error'
     BUS_BACK = 'bus_back'
     UNKNOWN_FRAMES = 'unknown_frames'
+    RUN_ON_STOP = 'run_on_stop'  # a drive that runs on by itself is being stopped after a liveness loss
     SETPOINT_REFUSED = 'setpoint_refused'  # the cycle's last check held an axis (joint in ``joint``)
     ERROR = 'error'
 

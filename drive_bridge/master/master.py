@@ -36,6 +36,7 @@ from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.realtime import SwitchInterval, make_realtime
+from drive_bridge.master.run_on import RunOnStop
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
 from drive_bridge.model import BusConfig
@@ -103,6 +104,8 @@ class Master:
         self.bus_down = False  # the bus failed (bus-off, interface errors) and has not come back
         self._last_reopen = 0.0
         self.bus_reopens = 0
+        self._run_on = RunOnStop(lambda node, level, text: self._emit(
+            EventKind.RUN_ON_STOP, Level.ERROR if level == 'error' else Level.WARN, text, node))
 
     # -- listeners ---------------------------------------------------------------------------
     def add_frame_listener(self, listener: FrameListener) -> None:
@@ -281,6 +284,12 @@ class Master:
     def _before_sync(self, cycle: int) -> None:
         now = self.sync.scheduled_time if self.sync is not None else time.time()
         for node in self.nodes.values():
+            if self._run_on.due(node):  # a drive that runs on by itself, lost while it sends: its stop
+                if node.family.stop_run_on(node.node_id, by_sdo=False):
+                    self._run_on.at_rest(node)
+                for cob_id, data in node.process.frames():
+                    self.network.send_message(cob_id, data)
+                continue
             if not node.available and node.boot_state is not BootState.STALE:
                 continue  # a stale node is still sent to: its axes are held by HALT
             axes = [self.axes[a.joint] for a in node.config.axes]
@@ -315,6 +324,11 @@ class Master:
                     self._check_heartbeat(node, now)
                     self._check_guarding(node, now)
                     self._check_freshness(node, now)
+                    if self._run_on.sdo_due(node):
+                        try:
+                            node.family.stop_run_on(node.node_id, by_sdo=True)
+                        except DriveBridgeError as exc:
+                            self._run_on.sdo_failed(node, exc)
                     if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
                         self._start_boot(node)
                 except Exception as exc:  # the other nodes are still supervised

@@ -139,9 +139,9 @@ class TrajectoryExecutor:
         with self._lock:
             def states(at: float) -> dict[str, JointSample]:
                 return {j: self._start_state(j, at) for j in (*trajectory.joints, *held)}
-            # set-points are sampled one cycle ahead: a motion starting before the next cycle would
-            # make its first set-point catch up the time since, in one cycle (a step)
-            earliest = now + self.cycle_period
+            # set-points are sampled one cycle ahead, for a SYNC up to a cycle ahead: a motion starting
+            # before the cycle that first samples it would catch up the time since in one cycle (a step)
+            earliest = now + 2 * self.cycle_period
             planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source,
                            max(committed, earliest))
             start, splines = planned.start, planned.splines

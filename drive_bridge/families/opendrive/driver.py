@@ -328,6 +328,24 @@ class RunLogicDriver:
             self._written[key] = value
             self.node.write(*key, value)
 
+    def stop_run_on(self, by_sdo: bool) -> bool:
+        """The drive runs on by itself and its master liveness is lost while it still sends: RUN
+        low and references 0 in this cycle's RPDO (``by_sdo``: written by SDO too); every intent
+        dropped. True once its speed reads 0 (at rest)."""
+        with self._cond:
+            self._run = self._confirmed = False
+            self._clear_commands()
+            self._message = 'liveness lost while the drive still sends: stopping it (RUN low, references 0)'
+            word = self._base
+        for name, value in (('logic', word), ('speed', 0), ('torque_reference', 0)):
+            self._written[self.key[name]] = value
+            if by_sdo:
+                self.node.sdo_write(*self.key[name], value)
+            else:
+                self.node.write(*self.key[name], value)
+        velocity = self._read('velocity')
+        return velocity is not None and velocity == 0
+
     def on_node_reset(self) -> None:
         """The node is configured again (rebooted, or answers again after a loss): every intent
         is dropped and the outputs are written again on the next cycle, RUN low and references

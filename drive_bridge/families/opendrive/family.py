@@ -149,6 +149,11 @@ class OpenDrive(DriveFamily):
                 return text
         return super().safety_object(config, index, subindex)
 
+    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
+        """RUN low and references 0 (the driver's outputs; by SDO too), at rest when the speed is 0."""
+        driver = self._drivers.get(node_id)
+        return True if driver is None else driver.stop_run_on(by_sdo)
+
     # -- the joint driver ---------------------------------------------------------------------
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
                             cycle_period: float) -> JointDriver:
