@@ -211,3 +211,32 @@ def test_7_a_fault_refusal_names_the_emcy_and_the_way_out(demo: Demo) -> None:
     refused = demo.call(AxisCommand, 'enable', joints=['base_joint'])
     assert not refused.success and '0x2310' in refused.message and '~/recover' in refused.message
     assert demo.call(AxisCommand, 'recover', joints=['base_joint']).success
+
+
+def test_6_a_drive_that_runs_on_is_stopped_when_its_guarding_is_lost_while_it_still_sends(ros: RosHarness) -> None:
+    from test_opendrive_ros import JOINT as SPINDLE, NODE, RPDO1, RUN, Bench as OpenBench
+    bench = OpenBench(ros, guard_time_ms=50, life_time_factor=3, command_timeout_ms=2000)
+    try:
+        drive = bench.drive
+        assert bench.axis('enable').success
+        for _ in range(10):
+            bench.publisher.publish(Float64MultiArray(data=[50.0]))  # 477.5 rpm
+            time.sleep(0.02)
+        wait_for(lambda: abs(drive.speed_rpm - 477.5) < 5, 3, 'the motor at 477.5 rpm')
+        mark = bench.sniffer.mark
+        drive.stop_guarding_replies(True)  # the drive runs on, its TPDOs still arrive
+        wait_for(lambda: next((m for m in bench.logs if 'keeps its last references without a master' in m.msg), None),
+                 3, 'the run-on stop reported')
+        wait_for(lambda: abs(drive.speed_rpm) < 1, 15, 'the motor at rest (its own ramp, RUN low)')
+        wait_for(lambda: next((m for m in bench.logs if 'at rest: stop no longer sent' in m.msg), None), 3,
+                 'at rest reported')
+        sent = bench.rpdos(mark)
+        stops = [f for f in sent if f == (0, 0, 0)]
+        assert stops and all(word & RUN == 0 for word, _s, _t in sent[sent.index(stops[0]):])
+        sdo = [f for f in bench.sniffer.frames(0x600 + NODE, mark) if f.data[1:3] == bytes([0x1F, 0x20])]
+        assert sdo, 'RUN low was not written by SDO too'
+        assert len([m for m in bench.logs if 'keeps its last references without a master' in m.msg]) == 1
+        assert not drive.running
+        assert RPDO1 == 0x200 + NODE and SPINDLE
+    finally:
+        bench.close()

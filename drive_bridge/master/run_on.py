@@ -29,6 +29,7 @@ class RunOnStop:
     def __init__(self, report: Callable[[NodeRuntime, str, str], None]) -> None:
         self.report = report
         self._stopping: dict[int, _Stopping] = {}
+        self._done: set[int] = set()  # stopped (at rest or gone) in this loss: nothing more sent
 
     @staticmethod
     def frames_arrive(node: NodeRuntime, now: float) -> bool:
@@ -39,6 +40,9 @@ class RunOnStop:
         """The node's stop goes out this cycle (cycle thread): lost, running on, still sending."""
         if not node.family.runs_on_without_master or node.boot_state is not BootState.LOST:
             self._finish(node, '')
+            self._done.discard(node.node_id)
+            return False
+        if node.node_id in self._done:
             return False
         now = time.time()
         stopping = self._stopping.get(node.node_id)
@@ -74,5 +78,6 @@ class RunOnStop:
     def _finish(self, node: NodeRuntime, why: str) -> None:
         stopping = self._stopping.pop(node.node_id, None)
         if stopping is not None and why:
+            self._done.add(node.node_id)
             self.report(node, 'warn', f'node {node.node_id} ({node.name}): {why} '
                                       f'(after {time.time() - stopping.since:.2f} s)')
