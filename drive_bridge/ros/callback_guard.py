@@ -124,6 +124,14 @@ def guard_execute(failures: CallbackFailures, callback: Callable[[Any], Any],
     return execute
 
 
+def _named(result: SetParametersResult, parameters: Sequence[Any]) -> SetParametersResult:
+    """A refusal that does not name its parameter (rclpy's own: a wrong type) gets the name."""
+    names = [getattr(p, 'name', '') for p in parameters]
+    if not result.successful and not any(name and name in result.reason for name in names):
+        result.reason = f'parameter {", ".join(names)}: {result.reason}'
+    return result
+
+
 def failures_of(node: Any) -> CallbackFailures:
     """The node's failure record (made on first use)."""
     failures = node.__dict__.get('callback_failures')
@@ -152,6 +160,13 @@ class GuardedCallbacks:
                      **kwargs: Any) -> Any:
         wrapped = guard_plain(self._failures(), 'timer', callback) if callback is not None else None
         return super().create_timer(timer_period_sec, wrapped, *args, **kwargs)  # type: ignore[misc]
+
+    def set_parameters(self, parameter_list: Sequence[Any]) -> list[SetParametersResult]:
+        results = super().set_parameters(parameter_list)  # type: ignore[misc]
+        return [_named(result, [parameter]) for result, parameter in zip(results, parameter_list)]
+
+    def set_parameters_atomically(self, parameter_list: Sequence[Any]) -> SetParametersResult:
+        return _named(super().set_parameters_atomically(parameter_list), parameter_list)  # type: ignore[misc]
 
     def add_on_set_parameters_callback(self, callback: Callable[..., Any]) -> None:
         super().add_on_set_parameters_callback(guard_on_set(self._failures(), callback))  # type: ignore[misc]

@@ -19,6 +19,7 @@ cannot be cured by time and is always refused.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -125,8 +126,9 @@ class SegmentPeaks:
 
 
 def segment_peaks(coefficients: Array, durations: Array) -> SegmentPeaks:
-    t = _instants(coefficients, durations)
-    position, velocity, acceleration = _evaluate(coefficients, t)
+    with np.errstate(all='ignore'):  # huge values overflow to inf: a violation, not a warning
+        t = _instants(coefficients, durations)
+        position, velocity, acceleration = _evaluate(coefficients, t)
     speed, accel = np.abs(velocity), np.abs(acceleration)
     rows = np.arange(len(durations))
     lo, hi, sp, ac = (np.argmin(position, axis=1), np.argmax(position, axis=1), np.argmax(speed, axis=1),
@@ -149,9 +151,11 @@ def violations(joint: str, knots: Array, peaks: SegmentPeaks, limits: AxisLimits
     ]
     for quantity, values, at, limit, below in checks:
         if limit is None:
-            continue
-        slack = TOLERANCE * max(1.0, abs(limit))
-        bad = values < limit - slack if below else values > limit + slack
+            bad = ~np.isfinite(values)  # no limit, but never a motion that overflows
+            limit = math.inf
+        else:
+            slack = TOLERANCE * max(1.0, abs(limit))
+            bad = ~np.isfinite(values) | (values < limit - slack if below else values > limit + slack)
         if bad.any():
             count += int(np.count_nonzero(bad))
             i = int(np.argmax(bad))
