@@ -68,9 +68,10 @@ def main(argv: list[str] | None = None) -> None:
     for order, name in ((1, 'linear'), (3, 'cubic'), (5, 'quintic')):
         traj = trajectory(args.points, args.joints, order)
         fast = trajectory(args.points, args.joints, order, speed=3.0)
-        v = timed(lambda: validate(traj, limits, 'bench'), args.repeat)
-        p = timed(lambda: plan(traj, 100.0, 100.0, states, limits, False, 'bench'), args.repeat)
-        s = timed(lambda: plan(fast, 100.0, 100.0, states, limits, True, 'bench'), max(3, args.repeat // 4))
+        v = timed(lambda t=traj: validate(t, limits, 'bench'), args.repeat)  # type: ignore[misc]
+        p = timed(lambda t=traj: plan(t, 100.0, 100.0, states, limits, False, 'bench'), args.repeat)  # type: ignore[misc]
+        s = timed(lambda t=fast: plan(t, 100.0, 100.0, states, limits, True, 'bench'),  # type: ignore[misc]
+                  max(3, args.repeat // 4))
         print(f'| {name} | {v[0]:.1f} / {v[1]:.1f} | {p[0]:.1f} / {p[1]:.1f} | {s[0]:.1f} / {s[1]:.1f} |')
 
 

@@ -17,11 +17,11 @@ from drive_bridge_interfaces.srv import AxisCommand, SdoWrite, SetMode
 from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
+from test_motion_safety_ros import NS, Demo
+from test_ros_parameters import ParameterClient
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from rostools import RosHarness, wait_for
-from test_motion_safety_ros import NS, Demo
-from test_ros_parameters import ParameterClient
 
 NON_FINITE = [math.nan, math.inf, -math.inf]
 HUGE = [1e300, -1e300]

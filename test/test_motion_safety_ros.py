@@ -17,8 +17,10 @@ from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.msg import AxisStates, SdoValue
 from drive_bridge_interfaces.srv import AxisCommand, SdoWrite, SetMode
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from test_ros_parameters import ParameterClient
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from akdtools import Sniffer
@@ -27,9 +29,7 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
-from rclpy.parameter import Parameter
 from rostools import RosHarness, wait_for
-from test_ros_parameters import ParameterClient
 
 NS = '/drive_bridge'
 RPDO2_BASE = 0x302  # node 2: 0x607A target position, 0x60FF target velocity (int32 each)
@@ -43,7 +43,8 @@ class Demo:
         self.ros = ros
         self.sniffer = Sniffer(data['bus']['channel'])
         self.node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)), Parameter('auto_enable', value=True)])
+            Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)),
+            Parameter('auto_enable', value=True)])
         ros.add(self.node)
         self.node.master.wait_until_operational(10.0)
         wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in self.node.master.axes.values()), 10,
@@ -106,8 +107,8 @@ def fastest(frames: list[tuple[float, float]]) -> float:
     """The largest set-point change between two frames the drive received, per cycle of the time
     between them, allowing one cycle of send jitter (a late cycle carries the motion of the time
     it waited, as the cycle check allows; a jump carries far more)."""
-    return max((abs(b - a) / ((max(tb - ta, PERIOD) + PERIOD) / PERIOD) for (a, ta), (b, tb) in zip(frames, frames[1:])),
-               default=0.0)
+    pairs = zip(frames, frames[1:])
+    return max((abs(b - a) / ((max(tb - ta, PERIOD) + PERIOD) / PERIOD) for (a, ta), (b, tb) in pairs), default=0.0)
 
 
 MAX_STEP = 2.0 * PERIOD * 1.05 + 1e-4  # base_joint: max_velocity 2 rad/s, one cycle

@@ -12,8 +12,8 @@ import pytest
 
 from bustools import config_from, eventually, running, unique_channel
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.joint import Setpoint
+from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
 
 JOINT = 'wheel_joint'

@@ -25,11 +25,11 @@ from drive_bridge.cia402.modecontrol import PP_IDLE, AxisError, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, SetpointSource
 from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.model import AxisConfig, Timeouts
 
 HOLD_COMMAND = {

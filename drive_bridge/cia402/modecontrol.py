@@ -29,8 +29,8 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
-from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.joint.position_loop import PositionLoop
+from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)

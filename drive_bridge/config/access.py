@@ -14,7 +14,15 @@ from typing import Any
 
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.reader import Section, describe, parse_int_text, suggestion
-from drive_bridge.model import EVERY_OBJECT, AccessConfig, NodeRule, ObjectRange, ObjectRule, SafetyAllowance, safety_name
+from drive_bridge.model import (
+    EVERY_OBJECT,
+    AccessConfig,
+    NodeRule,
+    ObjectRange,
+    ObjectRule,
+    SafetyAllowance,
+    safety_name,
+)
 
 ACCESS = ('read_only', 'sdo_read', 'sdo_write', 'store_restore', 'nmt', 'param_read', 'param_write', 'param_save',
           'safety_objects')

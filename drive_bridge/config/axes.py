@@ -115,7 +115,7 @@ def _limits(sec: Section | None) -> AxisLimits:
                   max_acceleration=sec.get_number('max_acceleration', gt=0),
                   max_effort=sec.get_number('max_effort', gt=0))
     reaction = sec.get_str('on_violation', 'halt', keys.VIOLATION_REACTIONS) or 'halt'
-    return AxisLimits(**values, on_violation=reaction,  # type: ignore[arg-type]
+    return AxisLimits(**values, on_violation=reaction,
                       sources={key: 'config' for key, value in values.items() if value is not None})
 
 

@@ -170,21 +170,22 @@ def _range_text(name: str) -> str:
     return f'{"0 or " if zero else ""}a finite number in {low:g}..{high:g}'
 
 
+def _in_range(name: str, value: object) -> bool:
+    low, high, zero = RANGES[name]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return False
+    return low <= value <= high or (zero and value == 0)
+
+
 def validate(params: BridgeParameters) -> list[str]:
     problems = []
     if params.config and params.config_yaml:
         problems.append('parameters config and config_yaml are exclusive: give one')
-    for name, (low, high, zero) in RANGES.items():
-        value = getattr(params, name)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            problems.append(f'parameter {name} must be {_range_text(name)}, got {value!r}')
-        elif not math.isfinite(value) or not (low <= value <= high or (zero and value == 0)):
-            problems.append(f'parameter {name} must be {_range_text(name)}, got {value!r}')
-    if not problems or all('pvt_segment' not in p for p in problems):
-        if abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
-            problems.append(f'parameter pvt_segment must be a whole number of ms, got {params.pvt_segment}')
-    if math.isfinite(params.pvt_lookahead) and math.isfinite(params.pvt_segment) \
-            and params.pvt_lookahead < params.pvt_segment:
+    bad = {name for name in RANGES if not _in_range(name, getattr(params, name))}
+    problems += [f'parameter {name} must be {_range_text(name)}, got {getattr(params, name)!r}' for name in sorted(bad)]
+    if 'pvt_segment' not in bad and abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
+        problems.append(f'parameter pvt_segment must be a whole number of ms, got {params.pvt_segment}')
+    if not bad & {'pvt_segment', 'pvt_lookahead'} and params.pvt_lookahead < params.pvt_segment:
         problems.append(f'parameter pvt_lookahead must be >= pvt_segment, got {params.pvt_lookahead}')
     if params.qos_reliability not in RELIABILITIES:
         problems.append(f'parameter qos_reliability must be one of {", ".join(RELIABILITIES)}, '

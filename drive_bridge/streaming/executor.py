@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.joint import DriveState, JointDriver, JointError, Setpoint
+from drive_bridge.streaming.planning import plan
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (
     JointSample,
@@ -24,7 +25,6 @@ from drive_bridge.streaming.trajectory import (
     TrajectoryError,
     validate,
 )
-from drive_bridge.streaming.planning import plan
 
 STALL_PERIODS = 2  # a cycle later than this many periods delays the stream (see _tick)
 

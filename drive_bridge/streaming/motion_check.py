@@ -108,7 +108,8 @@ def _quadratic_roots(c0: Array, c1: Array, c2: Array, durations: Array) -> Array
         r1 = np.where(quadratic, (-c1 + root) / (2 * c2), np.where(c1 != 0, -c0 / c1, 0.0))
         r2 = np.where(quadratic, (-c1 - root) / (2 * c2), 0.0)
     roots = np.stack([r1, r2], axis=1)
-    return np.clip(np.nan_to_num(roots, nan=0.0, posinf=0.0, neginf=0.0), 0.0, durations[:, None])
+    clipped: Array = np.clip(np.nan_to_num(roots, nan=0.0, posinf=0.0, neginf=0.0), 0.0, durations[:, None])
+    return clipped
 
 
 @dataclass(frozen=True)

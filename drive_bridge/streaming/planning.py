@@ -18,7 +18,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from drive_bridge.model import AxisLimits
-from drive_bridge.streaming.motion_check import MotionViolation, SegmentPeaks, segment_peaks, stretch_factors, violations
+from drive_bridge.streaming.motion_check import (
+    MotionViolation,
+    SegmentPeaks,
+    segment_peaks,
+    stretch_factors,
+    violations,
+)
 from drive_bridge.streaming.trajectory import JointSample, JointSpline, Trajectory, TrajectoryArrays, TrajectoryError
 
 STRETCH_ROUNDS = 8  # a stretched cubic with given waypoint velocities converges in two or three

@@ -11,7 +11,6 @@ splices into a running trajectory.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
