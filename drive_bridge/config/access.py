@@ -9,8 +9,8 @@ node names and ids. Node keys are YAML integers, so this section reads raw mappi
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
 
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.reader import Section, describe, parse_int_text, suggestion
@@ -30,6 +30,8 @@ OBJECT_RULES = ('sdo_read', 'sdo_write')
 NODE_RULES = ('store_restore', 'nmt', 'param_read', 'param_write', 'param_save')
 WRITE_RULES = ('sdo_write', 'store_restore', 'nmt', 'param_write', 'param_save')
 _RANGE = re.compile(r'^\s*(\w+)\s*(?:-\s*(\w+)\s*)?$')
+T = TypeVar('T')
+SafetyItems = tuple[tuple[ObjectRange, ...], frozenset[str]]  # objects and parameter names
 _RANGE_HINT = 'an index (0x6040) or a range "0x6000-0x6FFF"'
 
 
@@ -79,22 +81,28 @@ def _node_id(issues: Issues, key: Any, loc: Loc, ids: Mapping[str, int]) -> int 
     return None
 
 
-def _object_rule(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int], base: ObjectRule) -> ObjectRule:
-    if not isinstance(value, Mapping):
-        return ObjectRule(_ranges(issues, value, loc), given=True)
-    default = base.default
-    nodes: dict[int, tuple[ObjectRange, ...]] = {}
+def _per_node(issues: Issues, value: Mapping[Any, Any], loc: Loc, ids: Mapping[str, int],
+              parse: Callable[[Issues, Any, Loc], T], default: T) -> tuple[T, dict[int, T]]:
+    """A mapping of node (name or id) -> item, with ``default`` for the others."""
+    nodes: dict[int, T] = {}
     for key, item in value.items():
         where = loc.key(key)
         if key == 'default':
-            default = _ranges(issues, item, where)
+            default = parse(issues, item, where)
             continue
         node_id = _node_id(issues, key, where, ids)
         if node_id is None:
             continue
         if node_id in nodes:
             issues.error(where, f'node {node_id} is given twice (by name and by id)')
-        nodes[node_id] = _ranges(issues, item, where)
+        nodes[node_id] = parse(issues, item, where)
+    return default, nodes
+
+
+def _object_rule(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int], base: ObjectRule) -> ObjectRule:
+    if not isinstance(value, Mapping):
+        return ObjectRule(_ranges(issues, value, loc), given=True)
+    default, nodes = _per_node(issues, value, loc, ids, _ranges, base.default)
     return ObjectRule(default, nodes, given=True)
 
 
@@ -118,7 +126,7 @@ def _is_range(text: str) -> bool:
         match.group(2) is None or _index(match.group(2)) is not None)
 
 
-def _safety_items(issues: Issues, value: Any, loc: Loc) -> tuple[tuple[ObjectRange, ...], frozenset[str]]:
+def _safety_items(issues: Issues, value: Any, loc: Loc) -> SafetyItems:
     """Indices and ranges (objects) and vendor parameter names, mixed in one list."""
     if value is False or value is None:
         return (), frozenset()
@@ -146,16 +154,8 @@ def _safety(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int]) -> Saf
         return SafetyAllowance(every=True)
     if not isinstance(value, Mapping):
         return SafetyAllowance(default=_safety_items(issues, value, loc))
-    default: tuple[tuple[ObjectRange, ...], frozenset[str]] = ((), frozenset())
-    nodes = {}
-    for key, item in value.items():
-        where = loc.key(key)
-        if key == 'default':
-            default = _safety_items(issues, item, where)
-            continue
-        node_id = _node_id(issues, key, where, ids)
-        if node_id is not None:
-            nodes[node_id] = _safety_items(issues, item, where)
+    nothing: SafetyItems = ((), frozenset())
+    default, nodes = _per_node(issues, value, loc, ids, _safety_items, nothing)
     return SafetyAllowance(default=default, nodes=nodes)
 
 
