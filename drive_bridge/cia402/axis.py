@@ -116,6 +116,8 @@ class Axis(ModeControl):
         self._controlword = 0
         self._message = ''
         self._guard = SetpointGuard(cycle_period)
+        self._pvt_guard = SetpointGuard(0.0)
+        self._pvt_clock = 0.0
         self._setpoint_refused = ''
         self._configured_limits = config.limits
         self._limits_said = ''
@@ -401,6 +403,7 @@ class Axis(ModeControl):
         with self._cond:
             self.config = replace(self.config, limits=limits)
             self._loop = None  # rebuilt with these limits
+            self._stop_deceleration = None
         said = describe(self.joint, limits)
         if said != self._limits_said:
             self._limits_said = said

@@ -24,13 +24,12 @@ from drive_bridge.cia402.modes import (
     parse_mode,
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
-from drive_bridge.cia402.setpoint_check import check_targets, cyclic, seed_hold
+from drive_bridge.cia402.setpoint_check import SetpointChecks, SetpointRefused, check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
-from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
@@ -48,7 +47,7 @@ class AxisError(JointError):
     """An intent on a CiA 402 axis that could not be carried out; the message says why."""
 
 
-class ModeControl:
+class ModeControl(SetpointChecks):
     """Modes of operation of one axis: profile position handshake, homing, interpolated
     position (linear and the family's PVT), cyclic set-points with the command dead-man."""
 
@@ -80,8 +79,6 @@ class ModeControl:
     _loop: PositionLoop | None  # the bridge's position loop (velocity modes, 'position-loop' strategy)
     _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
     _mode_problem: str  # why the axis has no usable mode ('' when it has one)
-    _guard: SetpointGuard  # the last check of every commanded set-point
-    _setpoint_refused: str  # why the last set-point was refused ('' since the axis was enabled again)
 
     # provided by the state-machine driver
     @property
@@ -101,9 +98,6 @@ class ModeControl:
         raise NotImplementedError
 
     def _fault_text(self) -> str:
-        raise NotImplementedError
-
-    def _quick_stop_from_cycle(self) -> None:
         raise NotImplementedError
 
     # -- each cycle -------------------------------------------------------------------------
@@ -183,30 +177,6 @@ class ModeControl:
             if problem is not None:
                 self._refuse_setpoint(problem, actual)
         return dict(self._targets)
-
-    def _refuse_setpoint(self, problem: str, actual: int | float | None) -> None:
-        """A set-point beyond the limits is never written: the stream or command is dropped,
-        the targets hold the last good position (else the measured one), the axis is held
-        (HALT or quick stop, ``limits.on_violation``) and the cause reported once."""
-        last = self._guard.last.get('position')
-        scaling = self.config.scaling
-        hold = scaling.position_to_device(last[0]) if last is not None else actual
-        self._source = None
-        self._feeder = None
-        self._ip_point = None
-        self._loop_target = None
-        self._targets = {'target_velocity': 0, 'target_torque': 0}
-        if hold is not None:
-            self._targets['target_position'] = int(hold)
-        reaction = self.config.limits.on_violation
-        if reaction == 'quick_stop':
-            self._quick_stop_from_cycle()
-        else:
-            self._halt = True
-        self._setpoint_refused = (f'set-point refused before it was written: {problem}; axis held '
-                                  f'({"quick stop" if reaction == "quick_stop" else "HALT"}, limits.on_violation)')
-        self._message = self._setpoint_refused
-        self.node.report_setpoint_refused(self.config.joint, f'{self._where()}: {self._setpoint_refused}')
 
     def _close_loop(self, actual: int | float) -> None:
         """One step of the bridge's position loop: 0x60FF from the desired state and the
@@ -376,17 +346,23 @@ class ModeControl:
                 self.node.sdo_write(*self.key['ip_clear'], value)
 
     def stop_deceleration(self) -> float:
-        """Deceleration (SI, > 0) for a controlled stop: the joint's max_acceleration limit,
-        else the drive's profile deceleration 0x6084 (read once), else 1 unit/s^2."""
+        """Deceleration (SI, > 0) for a controlled stop: the joint's configured max_acceleration,
+        else the drive's profile deceleration 0x6084 (read once; within the drive's own maximum),
+        else that maximum, else 1 unit/s^2."""
         if self._stop_deceleration is None:
-            value = self.config.limits.max_acceleration
+            limits = self.config.limits
+            # the configured limit; one read from the drive's maximum (0x60C5) only caps its profile's
+            configured = limits.sources.get('max_acceleration', 'config') == 'config'
+            value = limits.max_acceleration if configured else None
             key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
             if value is None and self.node.has_object(*key):
                 try:
                     value = abs(_number(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)
                 except Exception:
                     value = None
-            self._stop_deceleration = value if value else 1.0
+            if value and limits.max_acceleration:
+                value = min(value, limits.max_acceleration)
+            self._stop_deceleration = value if value else (limits.max_acceleration or 1.0)
         return self._stop_deceleration
 
     def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
@@ -409,6 +385,8 @@ class ModeControl:
         position, sent together this cycle; the drive buffers it at the next SYNC."""
         if self.pvt is None:
             raise AxisError(f'{self._where()}: the drive family has no PVT interpolation')
+        if not self._pvt_point_allowed(position, time_units, velocity):
+            return
         self.node.write(*self.pvt.velocity, velocity)
         self.node.write(*self.pvt.time, time_units)
         self.node.write(*self.pvt.position, position)
@@ -471,29 +449,10 @@ class ModeControl:
             raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
         if self.state is not State.OPERATION_ENABLED:
             raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; {self._way_out()}')
-        self._check_step(position, velocity)
-
-    def _way_out(self) -> str:
-        raise NotImplementedError
-
-    def _check_step(self, position: float | None, velocity: float | None) -> None:
-        """A direct command the cycle check would refuse is refused here, before it is applied:
-        the axis is held since a refused set-point, or the command is a step larger than one
-        cycle allows in a mode the bridge feeds set-point by set-point."""
-        if self._setpoint_refused:
-            raise AxisError(f'{self._where()}: held since a set-point was refused ({self._setpoint_refused}); '
-                            'resume it (~/resume) or enable it again before commanding it')
-        looped = self._looped()
-        if looped or not cyclic(self._mode, looped):
-            return
-        scaling = self.config.scaling
-        problem = None
-        if position is not None:
-            problem = self._guard.step_problem(self.config.limits, 'position', position, abs(scaling.position_factor))
-        elif velocity is not None and self._mode in VELOCITY_MODES:
-            problem = self._guard.step_problem(self.config.limits, 'velocity', velocity, abs(scaling.velocity_factor))
-        if problem is not None:
-            raise AxisError(f'{self._where()}: {problem}')
+        try:
+            self._check_step(position, velocity)
+        except SetpointRefused as exc:
+            raise AxisError(str(exc)) from None
 
     def command(self, position: float | None = None, velocity: float | None = None,
                 effort: float | None = None) -> None:
