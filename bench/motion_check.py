@@ -3,8 +3,9 @@ runs the SYNC cycle (the bus process), where it holds the GIL.
 
 For 5,000-point trajectories of 4 joints (the most one trajectory may have) in each
 interpolation (linear: positions; cubic: positions and velocities; quintic: with
-accelerations), it times ``validate`` (the per-value checks) and ``plan`` (splines, the
-segment-by-segment motion check, the past-stamp blend), and ``plan`` with
+accelerations), it times ``validate`` (the per-value checks, the conversion to arrays), both
+``validate`` and ``plan`` (splines, the segment-by-segment motion check, the past-stamp blend:
+what ``TrajectoryExecutor.submit`` does), and ``plan`` with
 ``scale_to_limits`` on a trajectory 3x too fast (the stretch rounds). Median and max of
 ``--repeat`` runs, in ms. Figures on a shared, busy machine are noisy: say so beside them.
 
@@ -63,13 +64,14 @@ def main(argv: list[str] | None = None) -> None:
         return {f'joint{j}': JointSample(float(np.sin(j) + 0.5 * np.sin(2 * j)), float(np.cos(j) + np.cos(2 * j)),
                                          float(-np.sin(j) - 2 * np.sin(2 * j))) for j in range(args.joints)}
     print(f'{args.points} points x {args.joints} joints, {args.repeat} runs; ms median / max')
-    print('| interpolation | validate | plan (motion check) | plan, 3x too fast, scale_to_limits |')
+    print('| interpolation | validate | validate + plan (the motion check) | plan, 3x too fast, scale_to_limits |')
     print('|---|---|---|---|')
     for order, name in ((1, 'linear'), (3, 'cubic'), (5, 'quintic')):
         traj = trajectory(args.points, args.joints, order)
         fast = trajectory(args.points, args.joints, order, speed=3.0)
         v = timed(lambda t=traj: validate(t, limits, 'bench'), args.repeat)  # type: ignore[misc]
-        p = timed(lambda t=traj: plan(t, 100.0, 100.0, states, limits, False, 'bench'), args.repeat)  # type: ignore[misc]
+        p = timed(lambda t=traj: plan(t, 100.0, 100.0, states, limits, False, 'bench',  # type: ignore[misc]
+                                      arrays=validate(t, limits, 'bench')), args.repeat)
         s = timed(lambda t=fast: plan(t, 100.0, 100.0, states, limits, True, 'bench'),  # type: ignore[misc]
                   max(3, args.repeat // 4))
         print(f'| {name} | {v[0]:.1f} / {v[1]:.1f} | {p[0]:.1f} / {p[1]:.1f} | {s[0]:.1f} / {s[1]:.1f} |')

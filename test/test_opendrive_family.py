@@ -458,7 +458,8 @@ def test_fault_reset_fails_naming_the_alarm_while_its_cause_persists() -> None:
         eventually(lambda: rpdos(sniffer)[-1] == (0, 0, 0), 1.0, 'RUN dropped on the alarm')
         snapshot = axis.snapshot()
         assert snapshot.fault and snapshot.message.startswith('alarm A3 overcurrent')
-        with pytest.raises(JointError, match='in fault, alarm A3 overcurrent'):
+        refusal = r'in fault \(last EMCY 0x1000 alarm A3 overcurrent at .*; alarm A3 overcurrent \(0x2018 = .*~/recover'
+        with pytest.raises(JointError, match=refusal):
             axis.enable(timeout=0.5)
         mark = sniffer.mark
         with pytest.raises(JointError, match=r'fault reset failed: alarm A3 overcurrent still active .*cause persists'):

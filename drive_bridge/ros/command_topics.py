@@ -28,7 +28,7 @@ from drive_bridge.ros.message_limits import (
     check_trajectory_bytes,
 )
 from drive_bridge.ros.parameters import BridgeParameters
-from drive_bridge.streaming.executor import TrajectoryExecutor
+from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
@@ -36,6 +36,16 @@ LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one top
 
 class CommandRefused(DriveBridgeError, ValueError):
     pass
+
+
+def log_accepted(node: Node, handle: TrajectoryHandle, points: int) -> None:
+    """One line per accepted trajectory, with what planning changed; what it could not check
+    (a joint without a velocity limit, naming the key) as a warning."""
+    notes = ''.join(f'; {note}' for note in handle.notes)
+    node.get_logger().info(f'trajectory {handle.id}: {points} point(s) for {", ".join(handle.joints)}, '
+                           f'{handle.end - handle.start:.3f} s{notes}')
+    for warning in handle.warnings:
+        node.get_logger().warning(f'trajectory {handle.id}: {warning}')
 
 
 class CommandTopics:
@@ -105,10 +115,7 @@ class CommandTopics:
             self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
             return
         if handle is not None:
-            notes = ''.join(f'; {note}' for note in handle.notes)
-            self.node.get_logger().info(
-                f'trajectory {handle.id}: {len(msg.points)} point(s) for {", ".join(handle.joints)}, '
-                f'{handle.end - handle.start:.3f} s{notes}')
+            log_accepted(self.node, handle, len(msg.points))
 
     # -- direct commands -------------------------------------------------------------------------
     def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:

@@ -23,6 +23,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drive_bridge.master.master import Master
 from drive_bridge.ros.callback_guard import failures_of, guard_execute, guard_goal
+from drive_bridge.ros.command_topics import log_accepted
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.message_checks import NonFinite, check_tolerances, check_trajectory_points
@@ -103,6 +104,7 @@ class TrajectoryAction:
         if handle is None:  # an empty trajectory: a stop request, done
             goal.succeed()
             return self._result(Result.SUCCESSFUL, 'empty trajectory: joints stopped')
+        log_accepted(self.node, handle, len(request.trajectory.points))
         previous, self._current = self._current, goal
         if previous is not None and previous.is_active:
             self.node.get_logger().info('follow_joint_trajectory: a new goal replaces the running one')

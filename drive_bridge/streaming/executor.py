@@ -39,7 +39,8 @@ class TrajectoryHandle:
     end: float
     state: str = 'pending'  # pending, active, succeeded, superseded, aborted, cancelled
     reason: str = ''
-    notes: tuple[str, ...] = ()  # what planning changed or could not check (past points, stretching)
+    notes: tuple[str, ...] = ()  # what planning changed (past points dropped, segments stretched)
+    warnings: tuple[str, ...] = ()  # what it could not check (a joint without a velocity limit)
     _done: threading.Event = field(default_factory=threading.Event, repr=False)
 
     def finish(self, state: str, reason: str = '') -> None:
@@ -124,7 +125,7 @@ class TrajectoryExecutor:
             self.stop(trajectory.joints or tuple(self.axes), 'stopped by an empty trajectory', smooth=True)
             return None
         limits = {j: a.config.limits for j, a in self.axes.items()}
-        validate(trajectory, limits, source, waypoint_velocities=not self.scale_to_limits)
+        arrays = validate(trajectory, limits, source, waypoint_velocities=not self.scale_to_limits)
         start = trajectory.start - self.lag if trajectory.start else now
         if start + trajectory.points[-1].time < now:
             raise TrajectoryError(f'{source}: ends {now - start - trajectory.points[-1].time:.3f} s in the past '
@@ -143,13 +144,14 @@ class TrajectoryExecutor:
             # before the cycle that first samples it would catch up the time since in one cycle (a step)
             earliest = now + 2 * self.cycle_period
             planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source,
-                           max(committed, earliest))
+                           max(committed, earliest), arrays)
             start, splines = planned.start, planned.splines
             end = start + planned.duration
             for joint in held:  # partial goal: the other joints hold their desired position
                 position = self._start_state(joint, start).position
                 splines[joint] = JointSpline(start, JointSample(position, 0, 0), [], [], 1)
-            handle = TrajectoryHandle(next(self._ids), trajectory.joints, start, end, notes=planned.notes)
+            handle = TrajectoryHandle(next(self._ids), trajectory.joints, start, end, notes=planned.notes,
+                                      warnings=planned.warnings)
             for joint, spline in splines.items():
                 previous = self._owner[joint]
                 if previous is not None:

@@ -125,6 +125,11 @@ class SegmentPeaks:
     at_speed: Array
     at_accel: Array
 
+    def rows(self, start: int, stop: int) -> SegmentPeaks:
+        """The peaks of segments start..stop-1 (one joint's, of several evaluated at once)."""
+        return SegmentPeaks(*(getattr(self, f)[start:stop] for f in (
+            'lowest', 'highest', 'speed', 'accel', 'at_low', 'at_high', 'at_speed', 'at_accel')))
+
 
 def segment_peaks(coefficients: Array, durations: Array) -> SegmentPeaks:
     with np.errstate(all='ignore'):  # huge values overflow to inf: a violation, not a warning

@@ -25,7 +25,14 @@ from drive_bridge.streaming.motion_check import (
     stretch_factors,
     violations,
 )
-from drive_bridge.streaming.trajectory import JointSample, JointSpline, Trajectory, TrajectoryArrays, TrajectoryError
+from drive_bridge.streaming.trajectory import (
+    JointSample,
+    JointSpline,
+    SplineParts,
+    Trajectory,
+    TrajectoryArrays,
+    TrajectoryError,
+)
 
 STRETCH_ROUNDS = 8  # a stretched cubic with given waypoint velocities converges in two or three
 STRETCH_MARGIN = 1.02  # stretch a little more than the peak asks: the next round then passes
@@ -39,8 +46,9 @@ class Plan:
     start: float
     duration: float  # s, as it runs (stretched)
     splines: dict[str, JointSpline]
-    notes: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()  # what was changed: points dropped, segments stretched (the result says so)
     dropped: int = 0  # points already past at submission
+    warnings: tuple[str, ...] = ()  # what could not be checked (a joint without a velocity limit)
 
 
 def drop_past(trajectory: Trajectory, start: float, now: float) -> tuple[Trajectory, float, int]:
@@ -72,6 +80,18 @@ def _stretched(times: np.ndarray, factors: np.ndarray, lead_in: bool) -> np.ndar
     return new_knots[1:] if lead_in else new_knots
 
 
+def _peaks(parts: Mapping[str, SplineParts]) -> dict[str, SegmentPeaks]:
+    """Every joint's segment peaks, evaluated in one batch (the joints share their knots)."""
+    moving = {joint: part for joint, part in parts.items() if len(part.matrix)}
+    if not moving:
+        return {}
+    first = next(iter(moving.values()))
+    count = len(first.matrix)
+    peaks = segment_peaks(np.concatenate([p.matrix for p in moving.values()]),
+                          np.tile(np.diff(first.knots), len(moving)))
+    return {joint: peaks.rows(i * count, (i + 1) * count) for i, joint in enumerate(moving)}
+
+
 def _slowed(arrays: TrajectoryArrays, factors: np.ndarray, lead_in: bool) -> TrajectoryArrays:
     """Waypoint velocities and accelerations as a time scaling by the larger factor of the
     two segments meeting there leaves them (1/f, 1/f^2): the path keeps its shape."""
@@ -88,10 +108,12 @@ def unlimited_notes(joints: Sequence[str], limits: Mapping[str, AxisLimits]) -> 
 
 
 def plan(trajectory: Trajectory, start: float, now: float, states: Callable[[float], Mapping[str, JointSample]],
-         limits: Mapping[str, AxisLimits], scale_to_limits: bool, source: str, not_before: float = 0.0) -> Plan:
+         limits: Mapping[str, AxisLimits], scale_to_limits: bool, source: str, not_before: float = 0.0,
+         arrays: TrajectoryArrays | None = None) -> Plan:
     """Splines for a validated, non-empty trajectory; TrajectoryError names the segment,
     the joint and the figure of the first violation (or why it ends in the past).
-    ``not_before``: the earliest start (a PVT stream committed to the drive until then)."""
+    ``not_before``: the earliest start (a PVT stream committed to the drive until then);
+    ``arrays``: the trajectory as ``validate`` returned it (else converted here)."""
     original_end = start + trajectory.points[-1].time
     if original_end < now:
         raise TrajectoryError(f'{source}: ends {now - original_end:.3f} s in the past (header.stamp too old)')
@@ -103,19 +125,19 @@ def plan(trajectory: Trajectory, start: float, now: float, states: Callable[[flo
     if dropped:
         notes.append(f'{dropped} point(s) already past (header.stamp {elapsed:.3f} s old) dropped; the motion '
                      'starts now from the current state')
-    notes.extend(unlimited_notes(trajectory.joints, limits))
+    warnings = tuple(unlimited_notes(trajectory.joints, limits))
     start_states = states(start)
-    arrays = TrajectoryArrays.of(trajectory)
+    # the trajectory as it runs: ``trajectory`` is already without its past; the given arrays are not
+    arrays = TrajectoryArrays.of(trajectory) if arrays is None else arrays.tail(dropped, elapsed)
     times = arrays.times
     for _round in range(STRETCH_ROUNDS):
         parts = {joint: arrays.parts(j, start_states[joint], times) for j, joint in enumerate(trajectory.joints)}
         found: list[MotionViolation] = []
         count = 0
-        peaks: dict[str, SegmentPeaks] = {}
+        peaks = _peaks(parts)
         for joint, part in parts.items():
-            if not len(part.matrix):
+            if joint not in peaks:
                 continue
-            peaks[joint] = segment_peaks(part.matrix, np.diff(part.knots))
             first_ones, n = violations(joint, part.knots, peaks[joint], limits[joint],
                                        _labeller(part.lead_in, dropped))
             found += first_ones
@@ -126,7 +148,7 @@ def plan(trajectory: Trajectory, start: float, now: float, states: Callable[[flo
                 notes.append(f"stretched to the joints' limits (trajectory.scale_to_limits): {duration:.4g} s "
                              f'instead of {float(arrays.times[-1]):.4g} s')
             splines = {joint: JointSpline.of_parts(start, part) for joint, part in parts.items()}
-            return Plan(start, duration, splines, tuple(notes), dropped)
+            return Plan(start, duration, splines, tuple(notes), dropped, warnings)
         found.sort(key=lambda v: (v.quantity != 'position', v.segment))
         worst = found[0]
         more = f' (and {count - 1} more violation(s))' if count > 1 else ''

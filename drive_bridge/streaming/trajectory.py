@@ -57,11 +57,6 @@ class TrajectoryError(DriveBridgeError, ValueError):
     """A trajectory refused as a whole; the message says why."""
 
 
-def _array(trajectory: Trajectory, field: str) -> npt.NDArray[np.float64]:
-    """One field of every point as a (points x joints) array (fields of equal length, checked)."""
-    return np.array([getattr(p, field) for p in trajectory.points], dtype=np.float64)
-
-
 def _first(mask: npt.NDArray[np.bool_]) -> tuple[int, int]:
     """(point, joint) of the first True in a (points x joints) mask."""
     flat = int(np.argmax(mask))
@@ -69,15 +64,16 @@ def _first(mask: npt.NDArray[np.bool_]) -> tuple[int, int]:
 
 
 def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: str = 'trajectory',
-             waypoint_velocities: bool = True) -> None:
+             waypoint_velocities: bool = True) -> TrajectoryArrays | None:
     """Refuse a trajectory that cannot be executed whole; each reason names the culprit.
     The per-value checks run on arrays (a 5,000-point trajectory in a few milliseconds); the
     motion between the points is checked once splined (``streaming.planning``).
     ``waypoint_velocities`` False: a waypoint velocity beyond the limit is left to the motion
-    check, which may stretch the trajectory (``trajectory.scale_to_limits``)."""
+    check, which may stretch the trajectory (``trajectory.scale_to_limits``). Returns the
+    trajectory as arrays (None for the empty one), for the planning to reuse."""
     joints = trajectory.joints
     if not trajectory.points:
-        return  # an empty trajectory is a stop request
+        return None  # an empty trajectory is a stop request
     if len(trajectory.points) > MAX_TRAJECTORY_POINTS:  # first: the work below grows with it
         raise TrajectoryError(f'{source}: {len(trajectory.points)} points, more than the limit of '
                               f'{MAX_TRAJECTORY_POINTS}')
@@ -88,7 +84,8 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
     if duplicates:
         raise TrajectoryError(f'{source}: joint(s) listed twice: {", ".join(duplicates)}')
     _check_shape(trajectory, source)
-    times = np.array([p.time for p in trajectory.points], dtype=np.float64)
+    data = TrajectoryArrays.of(trajectory)
+    times = data.times
     bad_time = ~np.isfinite(times) | (times < 0)
     if bad_time.any():
         i = int(np.argmax(bad_time))
@@ -99,9 +96,9 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
         raise TrajectoryError(f'{source}: point {i}: time_from_start {times[i]:.6g} s is not after the previous '
                               f'point ({times[i - 1]:.6g} s); times must increase strictly')
     first = trajectory.points[0]
-    arrays = {name: _array(trajectory, field) for name, field, given in (
-        ('position', 'positions', first.positions), ('velocity', 'velocities', first.velocities),
-        ('acceleration', 'accelerations', first.accelerations)) if given}
+    arrays = {name: values for name, values, given in (
+        ('position', data.positions, first.positions), ('velocity', data.velocities, first.velocities),
+        ('acceleration', data.accelerations, first.accelerations)) if given and values is not None}
     for name, values in arrays.items():
         bad = ~np.isfinite(values)
         if bad.any():
@@ -126,6 +123,7 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
             i, j = _first(bad)
             raise TrajectoryError(f'{source}: point {i}: velocity {velocities[i, j]:.6g} of {joints[j]} exceeds '
                                   f'its limit {edge[j]:.6g}')
+    return data
 
 
 def _check_shape(trajectory: Trajectory, source: str) -> None:
@@ -301,6 +299,14 @@ class TrajectoryArrays:
                    np.array([p.velocities for p in points], dtype=np.float64) if first.velocities else zeros,
                    np.array([p.accelerations for p in points], dtype=np.float64) if first.accelerations else zeros,
                    order_of(trajectory))
+
+    def tail(self, dropped: int, elapsed: float) -> TrajectoryArrays:
+        """Without the first ``dropped`` points, the others ``elapsed`` s earlier."""
+        if not dropped and not elapsed:
+            return self
+        return TrajectoryArrays(self.joints, self.times[dropped:] - elapsed,
+                                None if self.positions is None else self.positions[dropped:],
+                                self.velocities[dropped:], self.accelerations[dropped:], self.order)
 
     def parts(self, j: int, start: JointSample, times: npt.NDArray[np.float64] | None = None) -> SplineParts:
         """Joint ``j``'s spline from ``start``, at the points' ``times`` (or others: stretched)."""
