@@ -12,6 +12,7 @@ step larger than the limits allow in one cycle is ever planned.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
@@ -152,7 +153,7 @@ def plan(trajectory: Trajectory, start: float, now: float, states: Callable[[flo
         found.sort(key=lambda v: (v.quantity != 'position', v.segment))
         worst = found[0]
         more = f' (and {count - 1} more violation(s))' if count > 1 else ''
-        if not scale_to_limits or worst.quantity == 'position':
+        if not scale_to_limits or worst.quantity == 'position' or not math.isfinite(worst.value):
             cure = ('; time cannot cure a position excess: change the points or their velocities'
                     if worst.quantity == 'position' and scale_to_limits else
                     '' if worst.quantity == 'position' else
