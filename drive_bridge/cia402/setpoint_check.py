@@ -143,13 +143,14 @@ class SetpointChecks:
         """The cycle check for a PVT point (the drive interpolates between points): its position
         and velocity within the limits, its position change within max_velocity over the point's
         time (the first point of a motion: the planner checked its lead-in from the current
-        state). A refused point is not pushed: the stream stops and the axis is held."""
+        state; the time-0 point that ends a motion is no move). A refused point is not pushed: the
+        stream stops and the axis is held."""
         assert self.pvt is not None
         scaling = self.config.scaling
         self._pvt_clock += time_units * self.pvt.time_unit
         position_si, velocity_si = scaling.position_to_si(position), scaling.velocity_to_si(velocity)
         problem = (self._pvt_guard.check(self.config.limits, 'position', position_si, self._pvt_clock,
-                                         abs(scaling.position_factor))
+                                         abs(scaling.position_factor), rate=time_units > 0)
                    or self._pvt_guard.check(self.config.limits, 'velocity', velocity_si, self._pvt_clock,
                                             abs(scaling.velocity_factor), rate=False))
         if time_units == 0:  # the end of a motion: the next one is measured from where the drive is then

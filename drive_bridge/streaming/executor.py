@@ -141,10 +141,18 @@ class TrajectoryExecutor:
             def states(at: float) -> dict[str, JointSample]:
                 return {j: self._start_state(j, at) for j in (*trajectory.joints, *held)}
             # set-points are sampled one cycle ahead, for a SYNC up to a cycle ahead: a motion starting
-            # before the cycle that first samples it would catch up the time since in one cycle (a step)
-            earliest = now + 2 * self.cycle_period
-            planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source,
-                           max(committed, earliest), arrays)
+            # before the cycle that first samples it would catch up the time since in one cycle (a step).
+            # Planning takes time too (more on a busy machine): planned again, later, if it took so long
+            # that the start is no longer ahead of the next cycle
+            margin = 2 * self.cycle_period
+            for _attempt in range(3):
+                began = self.now()
+                planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source,
+                               max(committed, began + margin), arrays)
+                took = self.now() - began
+                if self.now() + self.cycle_period <= planned.start:
+                    break
+                margin += took + self.cycle_period
             start, splines = planned.start, planned.splines
             end = start + planned.duration
             for joint in held:  # partial goal: the other joints hold their desired position
