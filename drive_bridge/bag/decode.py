@@ -25,7 +25,8 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.families import Liveness, get_family
 from drive_bridge.joint import AxisSnapshot, JointDriver
 from drive_bridge.master.events import EventKind, Level
-from drive_bridge.master.master import NMT_COMMANDS, UPDATE_PERIOD_WITHOUT_SYNC
+from drive_bridge.cia301.nmt import NMT_COMMANDS
+from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.master.pdo import ObjectKey
 from drive_bridge.master.sync import SYNC_COB_ID
 from drive_bridge.model import BusConfig

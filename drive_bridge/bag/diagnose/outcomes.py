@@ -12,36 +12,39 @@ from drive_bridge.bag.diagnose.nmt import NmtTimeline
 from drive_bridge.cia402.statemachine import State
 
 
-def _after(times: list[float], t: float) -> float | None:
-    return next((x for x in times if x > t), None)
+Mark = tuple[float, int]  # (relative time, event sequence number): order also without time stamps
+
+
+def _after(times: list[Mark], t: Mark) -> float | None:
+    return next((x[0] for x in times if x > t), None)
 
 
 class Outcomes:
-    """Relative times throughout (findings, timelines)."""
+    """Relative times throughout (findings, timelines), with the events' sequence numbers."""
 
     def __init__(self, nmt: NmtTimeline, emcy: EmcyTimeline, cia402: Cia402Axes) -> None:
-        self.operational: dict[int, list[float]] = {}
+        self.operational: dict[int, list[Mark]] = {}
         for event in nmt.events:
             if event.kind == 'state' and event.node is not None and event.text.endswith(' operational'):
-                self.operational.setdefault(event.node, []).append(event.time)
-        self.resets: dict[int, list[float]] = {}
+                self.operational.setdefault(event.node, []).append((event.time, event.seq))
+        self.resets: dict[int, list[Mark]] = {}
         for record in emcy.records:
             if record.event.is_reset:
-                self.resets.setdefault(record.node, []).append(record.time)
-        self.enabled: dict[int, list[float]] = {}
+                self.resets.setdefault(record.node, []).append((record.time, record.seq))
+        self.enabled: dict[int, list[Mark]] = {}
         self.drives = {axis.node for axis in cia402.axes.values()}  # nodes with CiA 402 axes: enabled again?
-        self.left_fault: dict[int, list[float]] = {}
+        self.left_fault: dict[int, list[Mark]] = {}
         for axis in cia402.axes.values():
-            for t, old, new in axis.transitions:
+            for (t, old, new), seq in zip(axis.transitions, axis.seqs):
                 if new is State.OPERATION_ENABLED:
-                    self.enabled.setdefault(axis.node, []).append(t)
+                    self.enabled.setdefault(axis.node, []).append((t, seq))
                 if old is State.FAULT:
-                    self.left_fault.setdefault(axis.node, []).append(t)
+                    self.left_fault.setdefault(axis.node, []).append((t, seq))
 
     def annotate(self, finding: Finding) -> Finding:
         if finding.severity is not Severity.ERROR or finding.node is None:
             return finding
-        node, t = finding.node, finding.time
+        node, t = finding.node, (finding.time, finding.seq)
         outcome = ''
         if finding.kind == 'heartbeat-stopped':
             outcome = 'unresolved at the end of the recording'

@@ -104,7 +104,7 @@ def timeline(d: Diagnosis) -> str:
 
 def sync_histogram(d: Diagnosis) -> str:
     fig, ax = _figure()
-    periods = d.sync.periods * 1000
+    periods = [p * 1000 for p in d.sync.periods]
     ax.hist(periods, bins=80, color='C0', log=True)
     if d.sync.nominal:
         ax.axvline(d.sync.nominal * 1000, color='C3', lw=1, label='nominal')
