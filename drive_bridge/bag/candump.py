@@ -20,7 +20,7 @@ from pathlib import Path
 from drive_bridge.bag.errors import BagError
 
 RawFrame = tuple[float, int, int, bytes]  # (time s, identifier, flags, data)
-EXT, RTR, ERR, TX = 1, 2, 4, 8
+EXT, RTR, ERR, TX, FD = 1, 2, 4, 8, 16
 ERR_FLAG = 0x20000000
 _HEX = frozenset('0123456789abcdefABCDEF')
 SCREEN = re.compile(
@@ -51,8 +51,8 @@ def parse_log_line(line: str) -> RawFrame:
     ident, flags = _flags_of(int(ident_text, 16), len(ident_text))
     if len(fields) > 2 and fields[2] == 'T':
         flags |= TX
-    if data_text.startswith('#'):
-        raise ValueError(f'{frame!r} is a CAN FD frame (##): a bag holds classic CAN frames only')
+    if data_text.startswith('#'):  # CAN FD: ##<flags nibble><data>
+        return t, ident, flags | FD, bytes.fromhex(data_text[2:])
     if data_text[:1] in ('R', 'r'):
         return t, ident, flags | RTR, bytes(int(data_text[1:] or 0) if data_text[1:].isdigit() else 0)
     return t, ident, flags, bytes.fromhex(data_text)

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from drive_bridge.bag import candump
-from drive_bridge.bag.candump import ERR, EXT, RTR, TX, RawFrame
+from drive_bridge.bag.candump import ERR, EXT, FD, RTR, TX, RawFrame
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.formats import FORMATS, check_format, detect
 
@@ -33,8 +33,8 @@ _READERS = {'trc': 'TRCReader', 'asc': 'ASCReader', 'blf': 'BLFReader', 'csv': '
             'sqlite': 'SqliteReader', 'mf4': 'MF4Reader'}
 
 
-def decode_raw(cdr: bytes | memoryview) -> tuple[RawFrame, str]:
-    """(raw frame, channel) of a drive_bridge_interfaces/CanFrame in CDR (little-endian), by hand."""
+def decode_raw(cdr: bytes | memoryview) -> tuple[RawFrame, str, int]:
+    """(raw frame, channel, DLC) of a drive_bridge_interfaces/CanFrame in CDR (little-endian), by hand."""
     buf = memoryview(cdr)[4:]
     sec, nsec, length = _HEAD.unpack_from(buf, 0)
     channel = bytes(buf[12:12 + length - 1]).decode('utf-8')
@@ -44,23 +44,24 @@ def decode_raw(cdr: bytes | memoryview) -> tuple[RawFrame, str]:
     offset += _FRAME_HEAD.size
     flags = (EXT if ext else 0) | (RTR if rtr else 0) | (ERR if err else 0) | (TX if buf[offset + size] else 0)
     data = bytes(min(dlc, 8)) if rtr else bytes(buf[offset:offset + size])
-    return (sec + nsec * 1e-9, ident, flags, data), channel
+    return (sec + nsec * 1e-9, ident, flags, data), channel, dlc
 
 
-def to_message(frame: RawFrame, channel: str = '') -> can.Message:
+def to_message(frame: RawFrame, channel: str = '', dlc: int | None = None) -> can.Message:
     import can
 
     t, ident, flags, data = frame
     remote = bool(flags & RTR)
     return can.Message(timestamp=t, arbitration_id=ident, is_extended_id=bool(flags & EXT),
-                       is_remote_frame=remote, is_error_frame=bool(flags & ERR), dlc=len(data),
-                       data=b'' if remote else data, is_rx=not flags & TX, channel=channel, check=False)
+                       is_remote_frame=remote, is_error_frame=bool(flags & ERR), is_fd=bool(flags & FD),
+                       dlc=len(data) if dlc is None else dlc, data=b'' if remote else data,
+                       is_rx=not flags & TX, channel=channel, check=False)
 
 
 def raw_of(msg: can.Message) -> RawFrame:
     ident = msg.arbitration_id
     flags = (EXT if msg.is_extended_id else 0) | (RTR if msg.is_remote_frame else 0) | \
-        (ERR if msg.is_error_frame or ident > 0x1FFFFFFF else 0) | (0 if msg.is_rx else TX)
+        (ERR if msg.is_error_frame or ident > 0x1FFFFFFF else 0) | (0 if msg.is_rx else TX) | (FD if msg.is_fd else 0)
     data = bytes(msg.data)
     if msg.is_remote_frame:
         data = bytes(min(msg.dlc, 8))
@@ -97,7 +98,7 @@ class Recording:
         if self.format in ('candump', 'candump-screen'):
             yield from self._text_frames()
         elif self.format == 'rosbag2-mcap':
-            for frame, _channel in _bag_raw(self.path):
+            for frame, _channel, _dlc in _bag_raw(self.path):
                 yield frame
         else:
             for msg in self.frames():
@@ -170,11 +171,11 @@ def frame_connections(connections: list[Connection]) -> list[Connection]:
 
 
 def _bag_frames(path: Path) -> Iterator[can.Message]:
-    for frame, channel in _bag_raw(path):
-        yield to_message(frame, channel)
+    for frame, channel, dlc in _bag_raw(path):
+        yield to_message(frame, channel, dlc)
 
 
-def _bag_raw(path: Path) -> Iterator[tuple[RawFrame, str]]:
+def _bag_raw(path: Path) -> Iterator[tuple[RawFrame, str, int]]:
     reader = bag_reader(path)
     try:
         count = 0
