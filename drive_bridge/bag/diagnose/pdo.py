@@ -5,15 +5,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
-
-from canopen.objectdictionary import ODArray, ODRecord, ODVariable
+from typing import TYPE_CHECKING, Any
 
 from drive_bridge.bag.diagnose.identity import Identities
 from drive_bridge.bag.diagnose.infer402 import Cia402Inference
 from drive_bridge.bag.diagnose.model import Context, Severity
 from drive_bridge.bag.diagnose.names import is_signed, object_label
 from drive_bridge.bag.diagnose.sdo import SdoTransaction
+
+if TYPE_CHECKING:  # canopen is imported when an EDS gives the mapping, not for every diagnosis
+    from canopen.objectdictionary import ODVariable
 
 AxisSink = Callable[[float, int, int, int], None]  # (t, node, axis slot, value)
 CYCLIC_S = 0.5  # a PDO sent at least this often is cyclic: its silences are findings (not event PDOs')
@@ -180,6 +181,7 @@ class Pdos:
             mapping = (0x1600 if kind == 'RPDO' else 0x1A00) + number - 1
             record = od.get(mapping)
             entries: tuple[tuple[int, int, int], ...] = ()
+            from canopen.objectdictionary import ODArray, ODRecord
             if isinstance(record, (ODRecord, ODArray)):
                 try:
                     count = _stored(record[0])

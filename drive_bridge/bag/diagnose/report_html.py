@@ -109,7 +109,8 @@ def render(d: Diagnosis, data: dict[str, Any]) -> str:
                  table(grouped, ['severity', 'when', 'count', 'node', 'joint', 'what', 'cause', 'outcome'],
                        row_class='severity')),
         _section('Nodes', table([_node_row(n) for n in data['nodes']]),
-                 _addressed(data['nodes_addressed_only']), _plot(plots.timeline, d) if d.nodes_seen() else ''),
+                 _addressed(data['nodes_addressed_only']),
+                 _plot(plots.timeline, d) if d.nodes_seen() and plots.worth_plotting(d) else ''),
         _section('NMT and boot timeline',
                  f'<p>{data["nmt"]["commands"]} NMT commands ({data["nmt"]["invalid_commands"]} invalid), '
                  f'{data["nmt"]["boot_ups"]} boot-ups ({data["nmt"]["commanded_boot_ups"]} after an NMT reset, '
@@ -120,8 +121,8 @@ def render(d: Diagnosis, data: dict[str, Any]) -> str:
         _section('EMCY', table(data['emcy'])),
         _section('CiA 402 axes', *_axes(d, data)),
         _section('SYNC', *_sync(d, data)),
-        _section('Bus load', table([data['busload']]), _plot(plots.busload, d) if timed and d.busload.nominal else
-                 '<p class="muted">no plot: the log has no time base of its own</p>'),
+        _section('Bus load', table([data['busload']]), _plot(plots.busload, d) if plots.worth_plotting(d) else
+                 '<p class="muted">no plot: the log is shorter than 1 s or has no time stamps of its own</p>'),
         _section('PDOs', table(data['pdo'])),
         _section('Following error', *_following(d, data)),
         _section('COB-IDs', _details('frames per COB-ID', table([{'cob_id': k, 'frames': v}
@@ -157,7 +158,7 @@ def _axes(d: Diagnosis, data: dict[str, Any]) -> list[str]:
         return ['<p class="muted">no statusword or controlword in the recording</p>']
     out = [table([{k: a[k] for k in ('node', 'slot', 'joint', 'state', 'commands', 'commands_not_followed')}
                   for a in axes])]
-    if any(a['transitions'] for a in axes):
+    if any(a['transitions'] for a in axes) and plots.worth_plotting(d):
         out.append(_plot(plots.cia402_states, d))
     for a in axes:
         out.append(_details(f'node {a["node"]} axis {a["slot"] + 1}: {len(a["transitions"])} transitions',
@@ -167,11 +168,11 @@ def _axes(d: Diagnosis, data: dict[str, Any]) -> list[str]:
 
 def _sync(d: Diagnosis, data: dict[str, Any]) -> list[str]:
     sync = data['sync']
-    if sync['count'] < 3:
-        return [f'<p class="muted">{sync["count"]} SYNC frames</p>']
+    if sync['count'] < 3 or not sync['nominal_s']:
+        return [f'<p class="muted">{sync["count"]} SYNC frames' + ('' if d.ctx.timing else ', no time stamps') + '</p>']
     jitter = {k: f'{v * 1e6:.0f} µs' for k, v in sync['jitter_s'].items()}
     return [f'<p>{sync["count"]} SYNC frames, nominal period {sync["nominal_s"] * 1000:.3f} ms, '
-            f'{sync["gaps"]} gaps</p>', table([jitter]), _plot(plots.sync_histogram, d)]
+            f'{sync["gaps"]} gaps</p>', table([jitter]), _plot(plots.sync_histogram, d) if plots.worth_plotting(d) else '']
 
 
 def _following(d: Diagnosis, data: dict[str, Any]) -> list[str]:
