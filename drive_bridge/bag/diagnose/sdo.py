@@ -259,7 +259,7 @@ class SdoLog:
                 severity = Severity.ERROR if txn.write else Severity.INFO if code in _PROBES else Severity.WARNING
             ctx.add(severity, txn.t_request, txn.node, f'SDO {label} {access}{value} {who} 0x{code:08X} '
                     f'({abort_text(code)})', cause, 'sdo-abort', slot=axis_slot(txn.index),
-                    short=f'node {txn.node} lacks mandatory {label}' if severity is Severity.ERROR and mandatory else
+                    short=f'node {txn.node} lacks mandatory {label}' if mandatory and not txn.write and code in _PROBES else
                     f'SDO {access} of {label} on node {txn.node} aborted 0x{code:08X}')
         elif status == 'no response':
             ctx.add(Severity.WARNING, txn.t_request, txn.node, f'SDO {label} {access} got no response',

@@ -19,10 +19,12 @@ def timebase(head: Sequence[RawFrame]) -> str:
     if len(head) >= 2 and all(f[0] == head[0][0] for f in head):
         return 'none'
     steps = [round((b[0] - a[0]) * 1e6) for a, b in zip(head, head[1:])]
-    steps = [s for s in steps if s > 0]
     if len(steps) < SYNTHETIC_MIN:
         return 'recorded'
     (step, count), = Counter(steps).most_common(1)
-    if step % 1000 == 0 and count >= SYNTHETIC_SHARE * len(steps):
+    # numbered frames: nearly every step is the one exact millisecond value, none shorter; on a real
+    # bus a response, a PDO after its SYNC, a burst come micro- to sub-milliseconds apart
+    shorter = sum(1 for s in steps if s < step)
+    if step > 0 and step % 1000 == 0 and count >= SYNTHETIC_SHARE * len(steps) and shorter <= 0.01 * len(steps):
         return f'synthetic (every frame {step / 1000:g} ms after the last)'
     return 'recorded'
