@@ -243,7 +243,7 @@ def test_report_verdict_errors_first_grouped_clock_and_units(tmp_path: Path) -> 
     frames += [(i * 0.01, 0x080, '') for i in range(300)]
     frames += [(i * 0.01 + 0.0004 + (i % 3) * 0.00005, 0x185, '3702') for i in range(300)]  # TPDO1 after SYNC
     frames.sort()
-    data, stdout, html = diagnose(tmp_path, log(frames, t0=1_700_000_000.0))
+    data, stdout, html = diagnose(tmp_path, log(frames, t0=1_700_000_000.0), 'trace.log', '--bitrate', '500000')
     lines = stdout.splitlines()
     assert lines[0].startswith('verdict: ')
     ranked = [line.split()[0] for line in lines if line.startswith('  ')]
