@@ -278,3 +278,31 @@ def test_the_stored_eds_is_named(tmp_path: Path) -> None:
     data = json.loads((tmp_path / 'r.json').read_text())
     assert data['inputs']['eds'] == {'5': 'drive.eds (stored in the bag)'}
     assert 'node 5: drive.eds (stored in the bag)' in (tmp_path / 'r.html').read_text()
+
+
+# -- speed: imports on use ------------------------------------------------------------------------------
+HEAVY = ('matplotlib', 'numpy', 'rosbags', 'can', 'canopen', 'rclpy', 'drive_bridge.bag.diagnose.engine')
+
+
+def _modules_after(args: list[str]) -> set[str]:
+    import subprocess
+    import sys
+    code = ('import sys, contextlib, io\nfrom drive_bridge.cli.main import main\n'
+            'with contextlib.redirect_stdout(io.StringIO()):\n'
+            '    try:\n        main(sys.argv[1:])\n    except SystemExit:\n        pass\n'
+            'print(" ".join(sorted(sys.modules)))\n')
+    out = subprocess.run([sys.executable, '-c', code, *args], capture_output=True, text=True, check=True, timeout=60)
+    return set(out.stdout.split())
+
+
+def test_diagnose_help_imports_nothing_of_the_diagnosis() -> None:
+    loaded = _modules_after(['diagnose', '--help'])
+    assert not {m for m in HEAVY if m in loaded}
+
+
+def test_a_short_log_is_diagnosed_without_plots_numpy_or_rosbags(tmp_path: Path) -> None:
+    path = tmp_path / 'short.log'
+    path.write_text(log([(0.0, 0x000, '8200'), (0.001, 0x702, '00')] + [(0.01 * i, 0x080, '') for i in range(1, 28)]))
+    loaded = _modules_after(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--no-progress'])
+    assert not {m for m in ('matplotlib', 'numpy', 'rosbags', 'canopen', 'rclpy') if m in loaded}
+    assert (tmp_path / 'r.html').stat().st_size > 1000
