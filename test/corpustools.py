@@ -119,9 +119,10 @@ def check_facts(log: dict[str, Any], data: dict[str, Any]) -> list[str]:
     if 'timebase' in facts and data['recording']['timebase'] != facts['timebase']:
         problems.append(f'time base {data["recording"]["timebase"]!r}, expected {facts["timebase"]!r}')
     if 'commanded_boot_ups' in facts and data['nmt']['commanded_boot_ups'] != facts['commanded_boot_ups']:
-        problems.append(f'{data["nmt"]["commanded_boot_ups"]} commanded boot-ups, expected {facts["commanded_boot_ups"]}')
+        problems.append(f'{data["nmt"]["commanded_boot_ups"]} commanded boot-ups, '
+                        f'expected {facts["commanded_boot_ups"]}')
     for want in facts.get('sdo', []):
-        if not any(t['node'] == want['node'] and t['object'].startswith(want['object']) and t['status'] == want['status']
-                   for t in data['sdo']['transactions']):
+        if not any(t['node'] == want['node'] and t['object'].startswith(want['object'])
+                   and t['status'] == want['status'] for t in data['sdo']['transactions']):
             problems.append(f'no SDO {want}')
     return problems

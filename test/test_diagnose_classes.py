@@ -267,8 +267,9 @@ def test_the_stored_eds_is_named(tmp_path: Path) -> None:
     from drive_bridge.bag.importer import import_trace
     eds = Path(__file__).resolve().parents[1] / 'drive_bridge' / 'families' / 'data' / 'generic402.eds'
     (tmp_path / 'drive.eds').write_bytes(eds.read_bytes())
-    (tmp_path / 'bus.yaml').write_text('bus: {interface: virtual, channel: x}\nnodes:\n'
-                                       '  axis: {node_id: 5, family: generic_402, dcf: drive.eds, axes: [{joint: j}]}\n')
+    (tmp_path / 'bus.yaml').write_text(
+        'bus: {interface: virtual, channel: x}\nnodes:\n'
+        '  axis: {node_id: 5, family: generic_402, dcf: drive.eds, axes: [{joint: j}]}\n')
     (tmp_path / 't.log').write_text(log([(0.0, 0x705, '05'), (1.0, 0x705, '05')]))
     import_trace(tmp_path / 't.log', tmp_path / 'bag', tmp_path / 'bus.yaml', progress=False)
     out = io.StringIO()

@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-
 from corpustools import check_facts, corpus, ours_found, path_of, score
+
 from drive_bridge.cli.main import main
 
 LOGS = corpus()

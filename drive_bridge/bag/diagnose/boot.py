@@ -85,7 +85,8 @@ class BootAnalysis:
             cause = ('its boot takes longer than the master waits: raise the master\'s boot timeout / SDO timeout, '
                      'or have it wait for the boot-up before the first SDO')
             ctx.add(Severity.WARNING, boot.time + ctx.t0, boot.node, text, cause, 'late-boot',
-                    short=f'node {boot.node} booted late' + (f' ({boot.time - reset.time:.1f} s)' if ctx.timing else ''))
+                    short=f'node {boot.node} booted late'
+                    + (f' ({boot.time - reset.time:.1f} s)' if ctx.timing else ''))
             why = f'node {boot.node} had not booted yet (its boot-up came after this request)'
             starts = {round(t.t_request - ctx.t0, 9) for t in waited}
             for finding in list(ctx.findings):

@@ -117,7 +117,7 @@ class EmcyTimeline:
             if record.finding is not None and not record.notice:
                 groups.setdefault((record.node, record.event.code), []).append(record)
         index = {id(f): i for i, f in enumerate(self.ctx.findings)}
-        for (node, code), records in groups.items():
+        for (node, _code), records in groups.items():
             if len(records) < REPEATED:
                 continue
             (cob, hits), = Counter(r.after for r in records).most_common(1)

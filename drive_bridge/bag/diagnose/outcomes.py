@@ -11,7 +11,6 @@ from drive_bridge.bag.diagnose.model import Finding, Severity
 from drive_bridge.bag.diagnose.nmt import NmtTimeline
 from drive_bridge.cia402.statemachine import State
 
-
 Mark = tuple[float, int]  # (relative time, event sequence number): order also without time stamps
 
 

@@ -313,7 +313,8 @@ class Pdos:
         if every >= 2 and abs(ratio - every) < 0.05 * every:
             self.ctx.add(Severity.INFO, stats.first, node,
                          f'{label} (0x{cob:03X}) comes every {every} SYNC ({mean * 1000:.1f} ms; SYNC every '
-                         f'{period * 1000:.1f} ms)', f'its transmission type is probably {every} (every {every}th SYNC)',
+                         f'{period * 1000:.1f} ms)',
+                         f'its transmission type is probably {every} (every {every}th SYNC)',
                          'pdo-rate')
             return
         missed = 1.0 - 1.0 / ratio

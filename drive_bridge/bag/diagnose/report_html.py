@@ -137,6 +137,7 @@ def render(d: Diagnosis, data: dict[str, Any]) -> str:
 def _node_row(node: dict[str, Any]) -> dict[str, Any]:
     row = {k: node[k] for k in ('node', 'name', 'family', 'frames_sent', 'identity', 'boot_ups', 'emcy',
                                 'sdo_transactions')}
+    row['node'] = f'node {node["node"]}'
     hb = node.get('heartbeat') or {}
     guard = node.get('guarding') or {}
     row['heartbeat'] = (f'{hb["count"]} × {hb["period_s"] * 1000:.0f} ms, {len(hb["gaps"])} gaps'
@@ -172,7 +173,8 @@ def _sync(d: Diagnosis, data: dict[str, Any]) -> list[str]:
         return [f'<p class="muted">{sync["count"]} SYNC frames' + ('' if d.ctx.timing else ', no time stamps') + '</p>']
     jitter = {k: f'{v * 1e6:.0f} µs' for k, v in sync['jitter_s'].items()}
     return [f'<p>{sync["count"]} SYNC frames, nominal period {sync["nominal_s"] * 1000:.3f} ms, '
-            f'{sync["gaps"]} gaps</p>', table([jitter]), _plot(plots.sync_histogram, d) if plots.worth_plotting(d) else '']
+            f'{sync["gaps"]} gaps</p>', table([jitter]),
+            _plot(plots.sync_histogram, d) if plots.worth_plotting(d) else '']
 
 
 def _following(d: Diagnosis, data: dict[str, Any]) -> list[str]:

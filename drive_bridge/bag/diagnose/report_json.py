@@ -6,9 +6,9 @@ from typing import Any
 
 from drive_bridge.bag.diagnose.engine import Diagnosis
 from drive_bridge.bag.diagnose.model import Severity
-from drive_bridge.bag.diagnose.verdict import clock, group, verdict
 from drive_bridge.bag.diagnose.names import object_label
 from drive_bridge.bag.diagnose.sdo import format_value
+from drive_bridge.bag.diagnose.verdict import clock, group, verdict
 from drive_bridge.cia402.modes import mode_name
 
 

@@ -244,7 +244,8 @@ class SdoLog:
             self.on_done(txn)
         elif status == 'abort' and txn.abort is not None:
             code = txn.abort
-            who = 'the master aborted' if by_client else 'aborted, after the master had given up,' if late else 'aborted'
+            who = ('the master aborted' if by_client else
+                   'aborted, after the master had given up,' if late else 'aborted')
             value = f' of {format_value(txn)}' if txn.write and txn.data else ''
             mandatory = MANDATORY.get((txn.index, txn.subindex))
             cause = abort_cause(code)
@@ -259,7 +260,8 @@ class SdoLog:
                 severity = Severity.ERROR if txn.write else Severity.INFO if code in _PROBES else Severity.WARNING
             ctx.add(severity, txn.t_request, txn.node, f'SDO {label} {access}{value} {who} 0x{code:08X} '
                     f'({abort_text(code)})', cause, 'sdo-abort', slot=axis_slot(txn.index),
-                    short=f'node {txn.node} lacks mandatory {label}' if mandatory and not txn.write and code in _PROBES else
+                    short=f'node {txn.node} lacks mandatory {label}'
+                    if mandatory and not txn.write and code in _PROBES else
                     f'SDO {access} of {label} on node {txn.node} aborted 0x{code:08X}')
         elif status == 'no response':
             ctx.add(Severity.WARNING, txn.t_request, txn.node, f'SDO {label} {access} got no response',
@@ -271,12 +273,12 @@ class SdoLog:
             if self.ctx.timing and end - txn.t_request >= NO_ANSWER_S:
                 self._close(txn, 'no response')
         for node, bursts in sorted(self.invalid.items()):
-            for start, txn, count in bursts:
-                during = f' during the {"download" if txn.write else "upload"} of {ctx_label(self.ctx, txn)}' \
-                    if txn is not None else ''
+            for start, burst_txn, count in bursts:
+                during = '' if burst_txn is None else \
+                    f' during the {"download" if burst_txn.write else "upload"} of {ctx_label(self.ctx, burst_txn)}'
                 self.ctx.add(Severity.ERROR, start, node,
-                             f'SDO server sent {count} invalid frame(s) on 0x{0x580 + node:03X}{during}: responses that '
-                             'fit no request (a burst)',
+                             f'SDO server sent {count} invalid frame(s) on 0x{0x580 + node:03X}{during}: '
+                             'responses that fit no request (a burst)',
                              'the node\'s SDO server (firmware) is broken, or another node sends on its COB-ID',
                              'sdo-invalid', short=f'SDO server of node {node} sent invalid frames')
 
