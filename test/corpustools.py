@@ -103,12 +103,12 @@ def score(log: dict[str, Any], tool: str, found: list[Found], data: dict[str, An
             result.missed.append(event['id'])
     tolerated = [t for t in log.get('tolerated') or [] if t['tool'] == tool]
     false = [t for t in log.get('false') or [] if t['tool'] == tool]
-    groups: dict[str, None] = {}
+    groups: dict[str, str] = {}  # (kind, node) -> the first one's text: one false finding per kind and node
     for i, f in enumerate(found):
         flagged = any(_matches(m, f) for m in false)
         if flagged or (f.severity in PROBLEMS and i not in used and not any(_matches(m, f) for m in tolerated)):
-            groups.setdefault(f'{f.kind} node {f.node}: {f.text[:90]}')
-    result.false = list(groups)
+            groups.setdefault(f'{f.kind} node {f.node}', f.text[:90])
+    result.false = [f'{key}: {text}' for key, text in groups.items()]
     return result
 
 
