@@ -86,19 +86,38 @@ def parse_screen_line(line: str) -> RawFrame | None:
 def read_log(path: Path, strict: bool, skipped: list[str]) -> Iterator[RawFrame]:
     """The frames of a ``candump -L`` log; BagError naming the line where it breaks (strict)."""
     fromhex = bytes.fromhex
+    identifiers: dict[str, int] = {}  # '701' -> 0x701, parsed once per COB-ID
     with path.open('r', encoding='latin-1', newline='') as stream:
         for number, line in enumerate(stream, start=1):
             try:  # the common line inline: (1699584944.440580) can0 701#00
-                close = line.index(')')
-                fields = line[close + 1:].split()
-                frame = fields[1]
-                if len(fields) == 2 and frame[3] == '#' and frame[4:5] not in ('R', 'r', '#'):
-                    yield float(line[line.index('(') + 1:close]), int(frame[:3], 16), 0, fromhex(frame[4:])
+                fields = line.split()
+                frame = fields[2]
+                if len(fields) == 3 and frame[3] == '#' and frame[4:5] not in ('R', 'r', '#'):
+                    text = frame[:3]
+                    ident = identifiers.get(text)
+                    if ident is None:
+                        ident = identifiers[text] = int(text, 16)
+                    yield float(fields[0][1:-1]), ident, 0, fromhex(frame[4:])
                 else:
                     yield parse_log_line(line)
             except (ValueError, IndexError) as exc:
                 if not line.strip():
                     continue
+                problem = f'line {number}: not a candump -L frame ({exc}): {line.strip()[:60]!r}'
+                if strict:
+                    raise BagError(f'{path}: {problem}') from None
+                skipped.append(problem)
+
+
+def read_log_channels(path: Path, strict: bool, skipped: list[str]) -> Iterator[tuple[RawFrame, str]]:
+    """The frames of a ``candump -L`` log with the interface each came on (for bags, replay)."""
+    with path.open('r', encoding='latin-1', newline='') as stream:
+        for number, line in enumerate(stream, start=1):
+            if not line.strip():
+                continue
+            try:
+                yield parse_log_line(line), line.split()[1]
+            except (ValueError, IndexError) as exc:
                 problem = f'line {number}: not a candump -L frame ({exc}): {line.strip()[:60]!r}'
                 if strict:
                     raise BagError(f'{path}: {problem}') from None

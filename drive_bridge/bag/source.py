@@ -86,10 +86,15 @@ class Recording:
         elif self.format == 'ixxat-minimon':
             from drive_bridge.bag.ixxat import read_minimon
             yield from read_minimon(self.path)
-        elif self.format in ('candump', 'candump-screen'):
-            channel = 'can0'
-            for frame in self._text_frames():
+        elif self.format == 'candump':
+            count = 0
+            for frame, channel in candump.read_log_channels(self.path, self.strict, self.skipped):
+                count += 1
                 yield to_message(frame, channel)
+            self._check_empty(count)
+        elif self.format == 'candump-screen':
+            for frame in self._text_frames():
+                yield to_message(frame, 'can0')  # a paste: its interface column is not kept
         else:
             yield from _trace_frames(self.path, self.format, self.strict, self.skipped)
 
@@ -110,6 +115,9 @@ class Recording:
         for frame in read(self.path, self.strict, self.skipped):
             count += 1
             yield frame
+        self._check_empty(count)
+
+    def _check_empty(self, count: int) -> None:
         if count == 0 and self.path.stat().st_size > EMPTY_TRACE_BYTES:
             raise BagError(f'{self.path}: no frame could be read from its {self.path.stat().st_size} bytes: '
                            f'not a {self.format} log, or corrupt')
