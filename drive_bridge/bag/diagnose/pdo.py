@@ -75,6 +75,7 @@ class CobStats:
     data: bytes | bytearray = b''
     first_sync: float = -1.0  # the last SYNC before its first frame
     not_operational: int = 0  # RPDO frames sent while the node was pre-operational or stopped
+    first_not_operational: float = 0.0
     node_state: int = 0  # that state
 
 
@@ -217,6 +218,8 @@ class Pdos:
         if not cob & 0x80 and 0x200 <= cob < 0x580:  # RPDO ranges: the node ignores them unless operational
             state = self.states.get(cob & 0x7F)
             if state in NOT_OPERATIONAL:
+                if not stats.not_operational:
+                    stats.first_not_operational = t
                 stats.not_operational += 1
                 stats.node_state = state or 0
         if self.last_sync >= 0 and cob & 0x80:  # TPDO ranges: 0x180, 0x280, ...
@@ -253,7 +256,7 @@ class Pdos:
             if stats.not_operational:
                 node = channel.node if channel else cob & 0x7F
                 label = channel.label() if channel else f'PDO 0x{cob:03X}'
-                self.ctx.add(Severity.WARNING, stats.first, node,
+                self.ctx.add(Severity.WARNING, stats.first_not_operational, node,
                              f'{stats.not_operational} frame(s) of {label} (0x{cob:03X}) sent while the node was '
                              f'{NOT_OPERATIONAL[stats.node_state]}: it ignores them',
                              'the node was never started (NMT start, 0x01) or fell back; only an operational node '
