@@ -1,4 +1,4 @@
-"""The repository builds in a colcon workspace with the README's exact command.
+"""The repository builds in a colcon workspace with the exact command of docs/hardware.md.
 
 The virtualenv stands in for ``source /opt/ros/jazzy/setup.bash``: it holds the same
 ROS packages (from PyPI), and AMENT_PREFIX_PATH / CMAKE_PREFIX_PATH point at it.
@@ -21,10 +21,10 @@ VENV = Path(sys.prefix)
 
 
 def readme_colcon_command() -> str:
-    """The ``colcon build`` line of the README's workspace section."""
-    section = REPO.joinpath('README.md').read_text().split('## Build in a colcon workspace', 1)[1]
+    """The ``colcon build`` line of the workspace section of docs/hardware.md."""
+    section = REPO.joinpath('docs', 'hardware.md').read_text().split('## Build in a colcon workspace', 1)[1]
     match = re.search(r'^(colcon build .*)$', section, re.MULTILINE)
-    assert match, 'README has no colcon build command in its workspace section'
+    assert match, 'docs/hardware.md has no colcon build command in its workspace section'
     return match.group(1)
 
 
