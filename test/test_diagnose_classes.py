@@ -75,7 +75,7 @@ def test_sdo_a_mandatory_read_aborted_at_boot_is_an_error_not_probing(tmp_path: 
     assert severities == {'0x6502': 'error', '0x2000:1': 'info'}
     [group] = [g for g in data['grouped'] if g['kind'] == 'sdo-abort' and g['severity'] == 'error']
     assert group['count'] == 3 and 'mandatory (CiA 402)' in group['cause']
-    assert data['verdict'].startswith('1 error: node 2 lacks mandatory 0x6502')
+    assert data['verdict'].startswith('3 errors: node 2 lacks mandatory 0x6502 (Supported drive modes) (×3)')
     assert '×3' in stdout
 
 

@@ -254,8 +254,9 @@ class SdoLog:
                          'its SDO server (firmware) is broken, or two nodes share its COB-ID')
             if mandatory and not txn.write and code in _PROBES:
                 severity = Severity.ERROR if mandatory == 'CiA 402' else Severity.WARNING
-                cause = (f'{label} is mandatory ({mandatory}): a master reading it at boot fails to configure the '
-                         'node (wrong node id, a device that is not what the config says, or its firmware lacks it)')
+                cause = (f'{label} is mandatory ({mandatory}): a master that reads it at boot (lely, ros2_canopen) '
+                         'stops configuring the node (a wrong node id, a device other than the config says, or a '
+                         'firmware without it)')
             else:
                 severity = Severity.ERROR if txn.write else Severity.INFO if code in _PROBES else Severity.WARNING
             ctx.add(severity, txn.t_request, txn.node, f'SDO {label} {access}{value} {who} 0x{code:08X} '

@@ -37,12 +37,14 @@ def verdict(groups: list[Group], timing_note: str = '') -> str:
     """'2 errors: node 2 booted late; SDO server of node 3 sent invalid frames' (+ the warnings' count)."""
     errors = _headlines(g for g in groups if g.first.severity is Severity.ERROR)
     warnings = _headlines(g for g in groups if g.first.severity is Severity.WARNING)
+    n_errors = sum(g.count for g in groups if g.first.severity is Severity.ERROR)  # as the badges count
+    n_warnings = sum(g.count for g in groups if g.first.severity is Severity.WARNING)
     if errors:
-        text = f'{_count(len(errors), "error")}: {_list(errors)}'
+        text = f'{_count(n_errors, "error")}: {_list(errors)}'
         if warnings:
-            text += f'; and {_count(len(warnings), "warning")}'
+            text += f'; and {_count(n_warnings, "warning")}'
     elif warnings:
-        text = f'no errors, {_count(len(warnings), "warning")}: {_list(warnings)}'
+        text = f'no errors, {_count(n_warnings, "warning")}: {_list(warnings)}'
     else:
         text = 'no problems found'
     return text + (f' ({timing_note})' if timing_note else '')
