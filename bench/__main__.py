@@ -1,5 +1,5 @@
-"""``python -m bench [tracking|memory|recording|diagnose|diagnose_lens|transport|ros_cycle|soak] [options]``: run a benchmark
-and print its table."""
+"""``python -m bench [tracking|memory|recording|diagnose|diagnose_lens|transport|ros_cycle|soak] [options]``:
+run a benchmark and print its table."""
 from __future__ import annotations
 
 import os

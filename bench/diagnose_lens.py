@@ -127,12 +127,14 @@ def speed(tmp: Path, frames: int, repeat: int) -> None:
     print(f'\nwall time, best of {repeat} (CPU time of that run); {frames} and 30 frames; load average '
           f'{os.getloadavg()[0]:.1f} at the start')
     print(f'{"":44} {"150k-frame log":>22} {"30-frame log":>22}')
-    rows = [('canopen-lens (its analysis, JSON)', lambda f: [LENS, str(f), '-s', str(tmp / 'l.json'), '--no-color']),
+    rows = [('canopen-lens (its analysis, JSON)',
+             lambda f: [LENS, str(f), '-s', str(tmp / 'l.json'), '--no-color']),
             ('drive-bridge diagnose, text + JSON', lambda f: [OURS, 'diagnose', str(f), '--no-html', '--json',
                                                               str(tmp / 'o.json'), '--no-progress']),
             ('drive-bridge diagnose, + HTML report', lambda f: [OURS, 'diagnose', str(f), '-o', str(tmp / 'o.html'),
                                                                 '--json', str(tmp / 'o.json'), '--no-progress']),
-            ('drive-bridge import (to a rosbag2 bag)', lambda f: [OURS, 'import', str(f), '-o', str(tmp / 'bag'), '-q'])]
+            ('drive-bridge import (to a rosbag2 bag)',
+             lambda f: [OURS, 'import', str(f), '-o', str(tmp / 'bag'), '-q'])]
     results = {}
     for name, command in rows:
         results[name] = [timed(command(f), repeat, tmp) for f in (big, small)]
