@@ -307,3 +307,9 @@ def test_a_short_log_is_diagnosed_without_plots_numpy_or_rosbags(tmp_path: Path)
     loaded = _modules_after(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--no-progress'])
     assert not {m for m in ('matplotlib', 'numpy', 'rosbags', 'canopen', 'rclpy') if m in loaded}
     assert (tmp_path / 'r.html').stat().st_size > 1000
+
+
+def test_the_cli_knows_every_format_the_reader_does() -> None:
+    from drive_bridge.bag.formats import FORMATS
+    from drive_bridge.cli.diagnose import FORMAT_NAMES
+    assert set(FORMAT_NAMES) == set(FORMATS)
