@@ -313,3 +313,12 @@ def test_the_cli_knows_every_format_the_reader_does() -> None:
     from drive_bridge.bag.formats import FORMATS
     from drive_bridge.cli.diagnose import FORMAT_NAMES
     assert set(FORMAT_NAMES) == set(FORMATS)
+
+
+def test_import_reads_a_paste_by_content_and_takes_format(tmp_path: Path) -> None:
+    paste = tmp_path / 'paste.txt'
+    paste.write_text(SCREEN)
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        assert main(['import', str(paste), '-o', str(tmp_path / 'a'), '-q']) == 0
+        assert main(['import', str(paste), '-o', str(tmp_path / 'b'), '-q', '--format', 'candump-screen']) == 0
+    assert '(candump-screen)' in out.getvalue() and ': 7 frames' in out.getvalue()
