@@ -112,7 +112,8 @@ class Cia402Axes:
             fault = self.emcy.fault_before(node, t, EMCY_BEFORE_S)
             what = (f'axis {slot + 1}: in {state.label} at its first statusword (0x{value:04X})'
                     if previous is State.UNKNOWN else f'axis {slot + 1}: {previous.label} -> {state.label}')
-            cause = f'{fault.text} at t={fault.time:.3f} s' if fault is not None else ''
+            at = f' at t={fault.time:.3f} s' if self.ctx.timing else ' before it'
+            cause = '' if fault is None else fault.text + at
             self.ctx.add(Severity.ERROR, t, node, what, cause, 'cia402-fault', slot=slot,
                          short=f'node {node} axis {slot + 1} in Fault' + (f' (EMCY 0x{fault.event.code:04X})'
                                                                            if fault is not None else ''))
@@ -195,7 +196,8 @@ class Cia402Axes:
             fault = self.emcy.fault_after(node, count, t, EMCY_AFTER_S)
             if fault is not None:
                 after = f', {(fault.time - t) * 1000:.1f} ms after the statusword' if self.ctx.timing else ', after it'
-                self.ctx.findings[index] = replace(finding, cause=f'{fault.text} at t={fault.time:.3f} s{after}',
+                at = f' at t={fault.time:.3f} s' if self.ctx.timing else ''
+                self.ctx.findings[index] = replace(finding, cause=f'{fault.text}{at}{after}',
                                                    short=f'{finding.short} (EMCY 0x{fault.event.code:04X})')
             else:
                 self.ctx.findings[index] = replace(finding, cause='no EMCY seen: read the error code 0x603F')

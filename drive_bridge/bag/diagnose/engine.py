@@ -284,7 +284,7 @@ class Engine:
             ctx.add(Severity.INFO, d.t0, None, f'timing not judged: {why}',
                     'heartbeat and SYNC periods, gaps, PDO rates, SDO latencies and the bus load need the bus\'s '
                     'own time stamps (candump -L, or -t a)', 'timebase')
-        outcomes = Outcomes(d.nmt, d.emcy, d.cia402)
+        outcomes = Outcomes(d.nmt, d.emcy, d.cia402, ctx.timing)
         ctx.findings = [outcomes.annotate(f) for f in ctx.findings]
 
     def _master(self) -> int | None:

@@ -21,7 +21,8 @@ def _after(times: list[Mark], t: Mark) -> float | None:
 class Outcomes:
     """Relative times throughout (findings, timelines), with the events' sequence numbers."""
 
-    def __init__(self, nmt: NmtTimeline, emcy: EmcyTimeline, cia402: Cia402Axes) -> None:
+    def __init__(self, nmt: NmtTimeline, emcy: EmcyTimeline, cia402: Cia402Axes, timing: bool = True) -> None:
+        self.at = (lambda t: f' at t={t:.3f} s') if timing else (lambda t: ' later')  # no time stamps: the order
         self.operational: dict[int, list[Mark]] = {}
         for event in nmt.events:
             if event.kind == 'state' and event.node is not None and event.text.endswith(' operational'):
@@ -49,7 +50,7 @@ class Outcomes:
             outcome = 'unresolved at the end of the recording'
         elif finding.kind in ('unexpected-restart', 'heartbeat-gap') and 'boot-up' in finding.what + finding.kind:
             back = _after(self.operational.get(node, []), t)
-            outcome = (f'recovered: operational again at t={back:.3f} s' if back is not None
+            outcome = (f'recovered: operational again{self.at(back)}' if back is not None
                        else 'unresolved: not operational again in the recording')
         elif finding.kind == 'heartbeat-gap':
             outcome = 'recovered: heartbeat back'
@@ -58,9 +59,9 @@ class Outcomes:
                        if x is not None]
             enabled = _after(self.enabled.get(node, []), t)
             if enabled is not None:
-                outcome = f'recovered: operation enabled again at t={enabled:.3f} s'
+                outcome = f'recovered: operation enabled again{self.at(enabled)}'
             elif cleared:
-                outcome = f'fault cleared at t={min(cleared):.3f} s' + (
+                outcome = f'fault cleared{self.at(min(cleared))}' + (
                     ', not enabled again in the recording' if node in self.drives else '')
             else:
                 outcome = 'unresolved at the end of the recording'
