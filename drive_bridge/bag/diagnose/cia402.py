@@ -112,8 +112,8 @@ class Cia402Axes:
             fault = self.emcy.fault_before(node, t, EMCY_BEFORE_S)
             what = (f'axis {slot + 1}: in {state.label} at its first statusword (0x{value:04X})'
                     if previous is State.UNKNOWN else f'axis {slot + 1}: {previous.label} -> {state.label}')
-            at = f' at t={fault.time:.3f} s' if self.ctx.timing else ' before it'
-            cause = '' if fault is None else fault.text + at
+            cause = '' if fault is None else fault.text + (f' at t={fault.time:.3f} s' if self.ctx.timing
+                                                           else ' before it')
             self.ctx.add(Severity.ERROR, t, node, what, cause, 'cia402-fault', slot=slot,
                          short=f'node {node} axis {slot + 1} in Fault' + (f' (EMCY 0x{fault.event.code:04X})'
                                                                            if fault is not None else ''))
