@@ -119,7 +119,9 @@ class AxisScaling:
 
 @dataclass(frozen=True)
 class AxisLimits:
-    """Joint limits in SI; None = not limited by the bridge."""
+    """Joint limits in SI; None = not limited by the bridge. ``todo``: the places of scaling or
+    limit keys the configuration marks TODO (a starter config of ``drive-bridge scan``): until
+    they are set the joint reports its state but takes no command and no trajectory."""
 
     min_position: float | None = None
     max_position: float | None = None
@@ -129,6 +131,7 @@ class AxisLimits:
     on_violation: str = 'halt'  # what holds the axis when a set-point breaks a limit: halt or quick_stop
     # where each limit came from, for the start-up line: 'config', or the drive object read at boot
     sources: Mapping[str, str] = field(default_factory=dict, compare=False)
+    todo: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -71,6 +71,12 @@ def test_both_packages_install_where_ros_tools_look(workspace: Path) -> None:
     assert (share / 'ament_index' / 'resource_index' / 'packages' / 'drive_bridge').is_file()
     assert (share / 'drive_bridge' / 'package.xml').is_file()
     assert (share / 'drive_bridge' / 'config' / 'demo.yaml').is_file()
+    for name in ('launch/bridge.launch.py', 'launch/two_buses.launch.py', 'config/bridge_params.yaml',
+                 'examples/moveit/moveit_controllers.yaml', 'examples/ros2_control/controllers.yaml',
+                 'examples/ros2_control/ros2_control.urdf', 'examples/ros2_control/bridge_params.yaml'):
+        assert (share / 'drive_bridge' / name).is_file(), name
+    # tools/control_msgs stands in for ROS's control_msgs in the PyPI virtualenv only
+    assert not (install / 'control_msgs').exists()
     iface_share = install / 'drive_bridge_interfaces' / 'share'
     assert (iface_share / 'ament_index' / 'resource_index' / 'packages' / 'drive_bridge_interfaces').is_file()
     assert (iface_share / 'drive_bridge_interfaces' / 'msg' / 'CanFrame.msg').is_file()

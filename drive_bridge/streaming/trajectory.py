@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from drive_bridge.errors import DriveBridgeError
+from drive_bridge.joint.limits import unset_problem
 from drive_bridge.model import AxisLimits
 from drive_bridge.streaming.motion_check import coefficient_matrix
 
@@ -83,6 +84,9 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
     duplicates = sorted({j for j in joints if joints.count(j) > 1})
     if duplicates:
         raise TrajectoryError(f'{source}: joint(s) listed twice: {", ".join(duplicates)}')
+    for joint in joints:
+        if known[joint].todo:
+            raise TrajectoryError(f'{source}: joint {joint} is {unset_problem(known[joint])}')
     _check_shape(trajectory, source)
     data = TrajectoryArrays.of(trajectory)
     times = data.times
