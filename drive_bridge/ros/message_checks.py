@@ -1,6 +1,6 @@
 """Non-finite numbers in a client's message are refused, naming the field, never ignored and
 never taken for something else: a ``JointState`` command with ``inf`` is not "not commanded"
-(NaN is, by topic_based_ros2_control's convention), a tolerance of NaN is not "unchecked"."""
+(NaN is, by topic_based_ros2_control's convention). A goal's tolerances: ``ros/goal_checks.py``."""
 from __future__ import annotations
 
 import math
@@ -39,16 +39,6 @@ def check_trajectory_points(points: Sequence[Any]) -> None:
         bad = _first_bad(point.effort, allow_nan=False)
         if bad is not None:
             raise NonFinite(f'point {i}: effort[{bad[0]}] is {bad[1]}: not a finite number')
-
-
-def check_tolerances(kind: str, tolerances: Sequence[Any]) -> None:
-    """A FollowJointTrajectory goal's path or goal tolerances: finite (<= 0 means unchecked)."""
-    for tolerance in tolerances:
-        for field in ('position', 'velocity', 'acceleration'):
-            value = getattr(tolerance, field)
-            if not math.isfinite(value):
-                raise NonFinite(f'{kind}_tolerance of {tolerance.name}: {field} is {value}: not a finite number '
-                                '(0 or negative: not checked)')
 
 
 def check_float(field: str, value: float) -> None:
