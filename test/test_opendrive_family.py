@@ -261,7 +261,10 @@ def test_lost_while_silent_then_back_with_run_low_and_references_zero() -> None:
         eventually(lambda: not axis.feedback()[0], 2.0, 'the joint unavailable')
         assert time.monotonic() - silent < 0.15 + 0.5  # life time 150 ms, plus polling on a busy machine
         assert axis.drive_state is DriveState.UNAVAILABLE
-        assert drive.running  # the drive itself does nothing when the master goes (the appendix's default)
+        # the drive itself does nothing when the master goes (the appendix's default) and still sends
+        # its TPDOs: the bridge keeps sending its stop (RUN low, references 0) until it is at rest
+        eventually(lambda: not drive.running, 2.0, 'the drive stopped by the bridge')
+        assert rpdos(sniffer)[-1] == (0, 0, 0)
         mark = sniffer.mark
         drive.stop_guarding_replies(False)
         eventually(lambda: node.available, 10.0, 'configured again')

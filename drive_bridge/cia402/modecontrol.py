@@ -204,6 +204,7 @@ class ModeControl(SetpointChecks):
         if setpoint.position is not None and self._looped():
             if self._loop_target is None and self._loop is not None:
                 self._loop.reset(self._actual_velocity())
+                self._guard.rebase('velocity', self._actual_velocity())
             self._loop_target = (setpoint.position, setpoint.velocity or 0.0)
             self._last_command = time.monotonic()
             self._stale = False

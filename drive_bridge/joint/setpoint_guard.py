@@ -37,6 +37,13 @@ class SetpointGuard:
         else:
             self.last[kind] = (value, now)
 
+    def rebase(self, kind: str, value: float) -> None:
+        """The next ``kind`` set-point is measured from ``value`` (the drive's actual velocity
+        when the bridge's position loop starts from it), at the last set-point's time."""
+        previous = self.last.get(kind)
+        if previous is not None and math.isfinite(value):
+            self.last[kind] = (value, previous[1])
+
     def forget(self) -> None:
         self.last.clear()
 

@@ -60,7 +60,10 @@ class RunOnStop:
         self._finish(node, 'at rest: stop no longer sent')
 
     def sdo_due(self, node: NodeRuntime) -> bool:
-        """The SDO stop is due (supervisor thread)."""
+        """The SDO stop is due (supervisor thread): only while the node is still lost (once it is
+        back, it is configured again and its driver owns its outputs)."""
+        if node.boot_state is not BootState.LOST:
+            return False
         stopping = self._stopping.get(node.node_id)
         now = time.monotonic()
         if stopping is None or now - stopping.last_sdo < SDO_PERIOD:

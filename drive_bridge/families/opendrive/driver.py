@@ -307,7 +307,9 @@ class RunLogicDriver:
         if setpoint.position is not None and self._looped():
             if self._loop_target is None and self._loop is not None:
                 velocity = self._read('velocity')
-                self._loop.reset(self.units.velocity_si(velocity) if velocity is not None else 0.0)
+                start = self.units.velocity_si(velocity) if velocity is not None else 0.0
+                self._loop.reset(start)
+                self._guard.rebase('velocity', start)
             self._loop_target = (setpoint.position, setpoint.velocity or 0.0)
             self._last_command = time.monotonic()
             self._stale = False
@@ -335,13 +337,14 @@ class RunLogicDriver:
         with self._cond:
             self._run = self._confirmed = False
             self._clear_commands()
-            self._message = 'liveness lost while the drive still sends: stopping it (RUN low, references 0)'
+            if not by_sdo:
+                self._message = 'liveness lost while the drive still sends: stopping it (RUN low, references 0)'
             word = self._base
         for name, value in (('logic', word), ('speed', 0), ('torque_reference', 0)):
-            self._written[self.key[name]] = value
-            if by_sdo:
+            if by_sdo:  # the process image is the cycle's: left as the PDO path writes it
                 self.node.sdo_write(*self.key[name], value)
             else:
+                self._written[self.key[name]] = value
                 self.node.write(*self.key[name], value)
         velocity = self._read('velocity')
         return velocity is not None and velocity == 0
