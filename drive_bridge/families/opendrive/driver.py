@@ -62,6 +62,7 @@ PV = int(Mode.PROFILE_VELOCITY)
 PT = int(Mode.PROFILE_TORQUE)
 MODES = (PV, PT)
 ESTIMATED = 'position estimated (integrated from velocity)'
+AT_REST_UNITS = 16  # |actual velocity element| at most this (0.1 % of its 16384 full scale): at rest
 Key = tuple[int, int]
 
 
@@ -333,7 +334,7 @@ class RunLogicDriver:
     def stop_run_on(self, by_sdo: bool) -> bool:
         """The drive runs on by itself and its master liveness is lost while it still sends: RUN
         low and references 0 in this cycle's RPDO (``by_sdo``: written by SDO too); every intent
-        dropped. True once its speed reads 0 (at rest)."""
+        dropped. True once its speed reads (about) 0: at rest."""
         with self._cond:
             self._run = self._confirmed = False
             self._clear_commands()
@@ -347,7 +348,7 @@ class RunLogicDriver:
                 self._written[self.key[name]] = value
                 self.node.write(*self.key[name], value)
         velocity = self._read('velocity')
-        return velocity is not None and velocity == 0
+        return velocity is not None and abs(velocity) <= AT_REST_UNITS
 
     def on_node_reset(self) -> None:
         """The node is configured again (rebooted, or answers again after a loss): every intent
