@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -110,3 +112,15 @@ def remove_stale_dds_segments() -> int:
             except OSError:
                 pass
     return removed
+
+
+def interrupt(proc: subprocess.Popen, timeout: float = 20.0) -> str:
+    """Ctrl-C to a process started with ``start_new_session`` (its whole group), SIGKILL if it
+    has not ended within ``timeout``; returns what it printed."""
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGINT)
+    try:
+        return proc.communicate(timeout=timeout)[0] or ''
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return proc.communicate()[0] or ''

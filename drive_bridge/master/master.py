@@ -2,8 +2,9 @@
 the cycle (SYNC) and the supervision (boot, retries, heartbeats).
 
 Threads: canopen's Notifier (frames in: TPDO, heartbeat, EMCY, SDO responses), the
-cycle (RPDOs then SYNC), the supervisor (heartbeat timeouts, boot scheduling) and one
-short-lived thread per node boot. Public methods are safe from any thread except the
+cycle (SYNC, then the RPDOs for the next SYNC once the TPDOs are in), the supervisor
+(heartbeat timeouts, boot scheduling) and one short-lived thread per node boot
+(docs/architecture.md, Threads). Public methods are safe from any thread except the
 Notifier (they may block on SDO).
 """
 from __future__ import annotations
