@@ -20,6 +20,7 @@ import canopen
 import pytest
 import yaml
 
+from akdtools import h
 from bustools import config_from, unique_channel
 from drive_bridge.families.opendrive.representation import full_scale
 from drive_bridge.sim import SimOpenDrive, SimulatedBus
@@ -34,10 +35,6 @@ EXAMPLE = Path(__file__).resolve().parent.parent / 'config' / 'opendrive_example
 def bench() -> Iterator[SimBench]:
     with SimBench() as b:
         yield b
-
-
-def h(text: str) -> bytes:
-    return bytes.fromhex(text)
 
 
 # -- §2.6.4 / §2.6.5: representation words ------------------------------------------------------------------

@@ -15,6 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from akdtools import h
 from drive_bridge.sim import SimS120
 from drive_bridge.sim.testing import SimBench, wait_until
 from s120tools import CU, HAVE_EDS, NODE, P8630, abort_code, add, param, read, start, wait_state, write
@@ -27,10 +28,6 @@ SAVE = '23 10 10 01 73 61 76 65'  # 0x1010:1 = "save": every parameter of every 
 def bench() -> Iterator[SimBench]:
     with SimBench() as b:
         yield b
-
-
-def h(text: str) -> bytes:
-    return bytes.fromhex(text)
 
 
 def sdo(bench: SimBench, request: str, node_id: int = NODE) -> bytes:

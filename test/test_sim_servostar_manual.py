@@ -15,6 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from akdtools import h
 from drive_bridge.sim.testing import SimBench, wait_until
 from servostartools import EMCY, NODE, add, emcys, enable, raw_sdo, read, set_mode, wait_emcy, write
 
@@ -26,10 +27,6 @@ TASK_ACTIVE, REFERENCE_SET, HOME_POSITION, IN_POSITION = 0x01, 0x02, 0x04, 0x08 
 def bench() -> Iterator[SimBench]:
     with SimBench() as b:
         yield b
-
-
-def h(text: str) -> bytes:
-    return bytes.fromhex(text)
 
 
 def exchange(bench: SimBench, request: str, response: str) -> None:
