@@ -69,6 +69,7 @@ class S120PdoEngine(PdoEngine):
         manual's online procedure: COB-ID invalid, the entries, COB-ID valid); sub 0 is
         read-write (the CiA 301 procedure, the EDS) or read-only (``sub0_read_only``). The
         length of the mapping is checked when the PDO is made valid."""
+        self._follow = None
         pdo = self._by_index[index]
         values = self._store.values
         if index == pdo.comm:
