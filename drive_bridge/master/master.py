@@ -21,7 +21,7 @@ import can
 import canopen
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.cia301.nmt import NMT_COMMANDS, NmtState
 from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC as UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.errors import ConfigError
 from drive_bridge.errors import DriveBridgeError
@@ -43,8 +43,6 @@ from drive_bridge.model import BusConfig
 
 log = logging.getLogger('drive_bridge.master')
 
-NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
-                0x81: 'reset node', 0x82: 'reset communication'}
 SUPERVISOR_PERIOD = 0.02
 ADHOC_SDO_TIMEOUT = 0.3
 LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets
