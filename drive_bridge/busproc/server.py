@@ -283,5 +283,6 @@ class BusServer:
 
 
 def handle_state(handle: TrajectoryHandle) -> HandleState:
-    return HandleState(handle.id, handle.joints, handle.start, handle.end, handle.state, handle.reason)
+    return HandleState(handle.id, handle.joints, handle.start, handle.end, handle.state, handle.reason,
+                       handle.notes, handle.warnings)
 
