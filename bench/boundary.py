@@ -256,7 +256,7 @@ def quick_stop(runs: int, work: Path, env: dict[str, str], node: Any) -> tuple[l
         set_mode = node.create_client(SetMode, f'{NS}/set_mode')
         set_mode.wait_for_service(timeout_sec=10)
         for _ in range(10):
-            set_mode.call_async(SetMode.Request(joints=['shoulder_joint'], mode='-100', timeout=1e6))
+            set_mode.call_async(SetMode.Request(joints=['shoulder_joint'], mode='-100', timeout=30.0))
 
         def hammer() -> None:
             sdo = node.create_client(SdoRead, f'{NS}/sdo_read')

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import copy
 import os
+import threading
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+import can
 import yaml
 from rclpy.parameter import Parameter
 
+from akdtools import Sniffer
 from bustools import config_from, unique_channel
 from drive_bridge.master.bus import open_bus
 from drive_bridge.master.node import NodeSnapshot
@@ -80,3 +83,13 @@ def node_snapshot(node: BusNode, name: str) -> NodeSnapshot:
     """A node's state as the bus process last reported it (the test query for what the master
     knows of a node: boot attempts, NMT state, EMCY history)."""
     return next(n for n in node.master.snapshot().nodes if n.name == name)
+
+
+class LocalSniffer(Sniffer):
+    """akdtools.Sniffer on a ``local`` channel (every frame the bridge and the drives send)."""
+
+    def __init__(self, channel: str) -> None:  # noqa: D107 (the parent's, on another interface)
+        self._bus = open_bus('local', channel)
+        self._frames = []
+        self._cond = threading.Condition()
+        self._notifier = can.Notifier(self._bus, [self._on_message], timeout=0.05)

@@ -28,7 +28,7 @@ def test_quick_stop_answers_while_long_calls_and_a_flood_hold_every_other_worker
         clients = ros.node('stoplane_clients')
         set_mode = clients.create_client(SetMode, f'{NS}/set_mode')
         assert set_mode.wait_for_service(timeout_sec=10)
-        hanging = [set_mode.call_async(SetMode.Request(joints=['shoulder_joint'], mode='-100', timeout=1e6))
+        hanging = [set_mode.call_async(SetMode.Request(joints=['shoulder_joint'], mode='-100', timeout=30.0))
                    for _ in range(10)]
         stop = threading.Event()
 

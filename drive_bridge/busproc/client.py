@@ -23,7 +23,18 @@ from drive_bridge.busproc.commands import CommandSender
 from drive_bridge.busproc.errors import BusProcessLost, BusProcessStartError
 from drive_bridge.busproc.executor import ExecutorProxy
 from drive_bridge.busproc.inbox import Inbox
-from drive_bridge.busproc.intents import Nmt, Query, Request, SdoRead, SdoWrite, Settings, Shutdown, Start, Stop
+from drive_bridge.busproc.intents import (
+    InjectSetpoint,
+    Nmt,
+    Query,
+    Request,
+    SdoRead,
+    SdoWrite,
+    Settings,
+    Shutdown,
+    Start,
+    Stop,
+)
 from drive_bridge.busproc.proxies import AxisProxy, NodeProxy, ParameterAccessProxy
 from drive_bridge.busproc.reports import Ready
 from drive_bridge.busproc.snapshots import SnapshotCache
@@ -31,6 +42,7 @@ from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.source import ConfigSource
 from drive_bridge.families import get_family
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
+from drive_bridge.joint import Setpoint
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.sdo import SdoPlain
 from drive_bridge.model import BusConfig
@@ -232,6 +244,11 @@ class BusClient(Inbox):
     def snapshot(self) -> BusSnapshot:
         """The bus as last reported (at most a diagnostics period old; a fresh one is asked for)."""
         return self.snapshots.get()
+
+    def inject_setpoint(self, joint: str, setpoint: Setpoint) -> None:
+        """The test hook ``intents.InjectSetpoint`` (refused unless the bus process was started
+        with DRIVE_BRIDGE_TEST_HOOKS=1)."""
+        self.call(InjectSetpoint(joint, setpoint.position, setpoint.velocity, setpoint.effort), 10.0)
 
     def settings(self, **changes: object) -> None:
         if not self.lost and self.started:
