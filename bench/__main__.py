@@ -1,6 +1,5 @@
-"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak|boundary_mechanism|boundary]
-[options]``: run a benchmark
-and print its table."""
+"""``python -m bench NAME [options]``, NAME one of tracking, memory, recording, diagnose, diagnose_lens,
+transport, ros_cycle, soak, motion_check, boundary, boundary_mechanism: run a benchmark and print its table."""
 from __future__ import annotations
 
 import os
@@ -10,7 +9,9 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 BENCHMARKS = {'tracking': 'bench.tracking', 'memory': 'bench.memory', 'recording': 'bench.recording',
               'diagnose': 'bench.diagnose', 'transport': 'bench.transport', 'ros_cycle': 'bench.ros_cycle',
-              'soak': 'bench.soak', 'boundary_mechanism': 'bench.boundary_mechanism', 'boundary': 'bench.boundary'}
+              'soak': 'bench.soak', 'motion_check': 'bench.motion_check',
+              'diagnose_lens': 'bench.diagnose_lens', 'boundary_mechanism': 'bench.boundary_mechanism',
+              'boundary': 'bench.boundary'}
 
 
 def main() -> None:

@@ -37,6 +37,7 @@ import json
 import math
 import os
 import random
+import shutil
 import statistics
 import subprocess
 import sys
@@ -433,7 +434,9 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
     config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps, realtime=variant == 'rt')))
     me = [sys.executable, '-m', 'bench.ros_cycle']
     log = work / f'{channel}.log'
-    sim = _popen([str(TOOL), 'sim', str(config)], env, log)
+    # rt: the simulated drives at the bridge's cycle priority too, else its SCHED_FIFO cycle starves them
+    realtime = ['chrt', '-f', str(REALTIME_PRIORITY)] if variant == 'rt' and shutil.which('chrt') else []
+    sim = _popen([*realtime, str(TOOL), 'sim', str(config)], env, log)
     processes = [sim]
     try:
         for _ in range(axes):

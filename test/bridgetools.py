@@ -2,10 +2,10 @@
 
 The node starts its bus process (the Master, the cycle) as a child; simulated drives inside
 that process cannot be seen from the test. :func:`start_bridge` (:func:`bridge_with_sim`)
-therefore runs the configuration's simulated drives in the test's own process, on a ``local`` bus (Unix datagram
-sockets) that the bus process opens too: the bridge reaches them only through CAN frames, and
-``node.simulation`` is the test's :class:`~drive_bridge.sim.SimulatedBus`. A test that
-injects or records raw frames joins that bus (:func:`sniffing`).
+therefore runs the configuration's simulated drives in the test's own process, on a ``local``
+bus (Unix datagram sockets) that the bus process opens too: the bridge reaches them only
+through CAN frames, and ``node.simulation`` is the test's :class:`~drive_bridge.sim.SimulatedBus`.
+A test that injects or records raw frames joins that bus (:func:`sniffing`, :class:`LocalSniffer`).
 """
 from __future__ import annotations
 
@@ -140,3 +140,10 @@ def node_snapshot(node: BusNode, name: str, fresh: bool = False) -> NodeSnapshot
     (:func:`fresh_snapshot`)."""
     snapshot = fresh_snapshot(node) if fresh else node.master.snapshot()
     return next(n for n in snapshot.nodes if n.name == name)
+
+
+class LocalSniffer(Sniffer):
+    """akdtools.Sniffer on a ``local`` channel (every frame the bridge and the drives send)."""
+
+    def __init__(self, channel: str) -> None:
+        super().__init__(channel, interface='local')

@@ -88,22 +88,29 @@ def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subpr
     try:
         yield bridge, sim, sniffer
     finally:
-        for process in [*bus_processes(bridge), psutil.Process(bridge.pid) if bridge.poll() is None else None]:
-            if process is not None:
-                try:
-                    process.kill()
-                except psutil.NoSuchProcess:
-                    pass
+        for process in [*bus_processes(bridge), *_seen.pop(bridge.pid, [])]:
+            try:
+                process.kill()  # a bus process that holds an axis runs until told (here: killed)
+            except psutil.NoSuchProcess:
+                pass
+        if bridge.poll() is None:
+            bridge.kill()
         bridge.wait(10)
         sniffer.close()
         sim.stop()
 
 
+_seen: dict[int, list[psutil.Process]] = {}
+
+
 def bus_processes(bridge: subprocess.Popen[str]) -> list[psutil.Process]:
+    """The bridge's bus process(es), remembered: once the bridge is gone they are no one's children."""
     try:
-        return [p for p in psutil.Process(bridge.pid).children() if 'drive_bridge.busproc' in ' '.join(p.cmdline())]
+        found = [p for p in psutil.Process(bridge.pid).children() if 'drive_bridge.busproc' in ' '.join(p.cmdline())]
     except psutil.NoSuchProcess:
         return []
+    _seen.setdefault(bridge.pid, []).extend(p for p in found if p not in _seen.get(bridge.pid, []))
+    return found
 
 
 def enabled_and_moving(ros: RosHarness, sim: Any) -> None:

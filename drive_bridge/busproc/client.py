@@ -17,38 +17,32 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
-from typing import Any
 
-import can
-
-from drive_bridge.busproc import cyclic, wire
+from drive_bridge.busproc import wire
 from drive_bridge.busproc.commands import CommandSender
 from drive_bridge.busproc.errors import BusProcessLost, BusProcessStartError
 from drive_bridge.busproc.executor import ExecutorProxy
-from drive_bridge.busproc.failures import exception
-from drive_bridge.busproc.intents import Nmt, Query, Request, SdoRead, SdoWrite, Settings, Shutdown, Start, Stop
-from drive_bridge.busproc.proxies import AxisProxy, NodeProxy, ParameterAccessProxy
-from drive_bridge.busproc.reports import (
-    AxisStates,
-    CommandRefused,
-    Failure,
-    Farewell,
-    Frames,
-    HandleState,
-    Ready,
-    Reply,
-    StartFailed,
-    StopOutcome,
-    unpack_frames,
+from drive_bridge.busproc.inbox import Inbox
+from drive_bridge.busproc.intents import (
+    InjectSetpoint,
+    Nmt,
+    Query,
+    Request,
+    SdoRead,
+    SdoWrite,
+    Settings,
+    Shutdown,
+    Start,
+    Stop,
 )
+from drive_bridge.busproc.proxies import AxisProxy, NodeProxy, ParameterAccessProxy
+from drive_bridge.busproc.reports import Ready
 from drive_bridge.busproc.snapshots import SnapshotCache
-from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.source import ConfigSource
 from drive_bridge.families import get_family
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
-from drive_bridge.master.events import BusEvent
+from drive_bridge.joint import Setpoint
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.sdo import SdoPlain
 from drive_bridge.model import BusConfig
@@ -58,13 +52,12 @@ log = logging.getLogger('drive_bridge.busproc')
 START_TIMEOUT = 60.0  # s for the bus process to open the bus (imports, simulated drives)
 SHUTDOWN_TIMEOUT = 10.0  # s for it to stop the axes and release the bus when asked
 CALL_TIMEOUT = 30.0  # s for an answer to a request without a timeout of its own
-STOP_TIMEOUT = 2.0  # s for the stop lane's answer that trajectories ended
-EVENTS_KEPT = 200
 
 
-class BusClient:
+class BusClient(Inbox):
     def __init__(self, config: BusConfig, source: ConfigSource, *, pvt_segment: float = 0.01,
                  pvt_lookahead: float = 0.05) -> None:
+        super().__init__()
         self.config = config
         self.source = source
         period = config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
@@ -73,22 +66,10 @@ class BusClient:
         self.axes = {a.joint: AxisProxy(self, n, a, period) for n in config.nodes for a in n.axes}
         self.joints = list(self.axes)
         self.executor = ExecutorProxy(self, pvt_segment, pvt_lookahead)
-        self.events: list[BusEvent] = []
         self.lost = ''  # why the bus process is gone ('' while it runs)
         self.pid = 0
-        self.frame_drops = 0  # frames the bus process could not forward (its queue was full)
-        self.state_drops = 0  # cyclic states it could not send (this process's buffer was full)
         self.process: subprocess.Popen[bytes] | None = None
         self._ids = itertools.count(1)
-        self._pending: dict[int, concurrent.futures.Future[object]] = {}
-        self._pending_lock = threading.Lock()
-        self._ready: concurrent.futures.Future[Ready] = concurrent.futures.Future()
-        self._event_listeners: list[Callable[[BusEvent], None]] = []
-        self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
-        self._feedback_listeners: list[Callable[[], None]] = []
-        self._frame_listeners: list[Callable[[can.Message], None]] = []
-        self._lost_listeners: list[Callable[[str], None]] = []
-        self._refusal_listeners: list[Callable[[str, str], None]] = []
         self._lost_once = threading.Lock()
         self.snapshots = SnapshotCache(self)
         self.commands = CommandSender(self, period)
@@ -264,6 +245,11 @@ class BusClient:
         """The bus as last reported (at most a diagnostics period old; a fresh one is asked for)."""
         return self.snapshots.get()
 
+    def inject_setpoint(self, joint: str, setpoint: Setpoint) -> None:
+        """The test hook ``intents.InjectSetpoint`` (refused unless the bus process was started
+        with DRIVE_BRIDGE_TEST_HOOKS=1)."""
+        self.call(InjectSetpoint(joint, setpoint.position, setpoint.velocity, setpoint.effort), 10.0)
+
     def settings(self, **changes: object) -> None:
         if not self.lost and self.started:
             self.call_async(Settings(**changes))  # type: ignore[arg-type]
@@ -272,159 +258,6 @@ class BusClient:
         """Start a timing capture of the bus into ``path`` ('': stop it and write the file);
         waits until the bus process has done it."""
         self.call(Settings(capture=path), 30.0)
-
-    # -- listeners -------------------------------------------------------------------------------------
-    def add_event_listener(self, listener: Callable[[BusEvent], None]) -> None:
-        self._event_listeners = [*self._event_listeners, listener]
-
-    def add_emcy_listener(self, listener: Callable[[EmcyEvent], None]) -> None:
-        """EMCYs within the bus process's per-node reporting limit."""
-        self._emcy_listeners = [*self._emcy_listeners, listener]
-
-    def add_feedback_listener(self, listener: Callable[[], None]) -> None:
-        """Called with every cyclic state (the state lane's reader thread; keep it short)."""
-        self._feedback_listeners = [*self._feedback_listeners, listener]
-
-    def add_lost_listener(self, listener: Callable[[str], None]) -> None:
-        self._lost_listeners = [*self._lost_listeners, listener]
-
-    def add_refusal_listener(self, listener: Callable[[str, str], None]) -> None:
-        """(topic, reason) of each direct command the bus process refused."""
-        self._refusal_listeners = [*self._refusal_listeners, listener]
-
-    def add_frame_listener(self, listener: Callable[[can.Message], None]) -> None:
-        """Every frame, both directions, in batches from the bus process (forwarded only while
-        some listener wants them)."""
-        first = not self._frame_listeners
-        self._frame_listeners = [*self._frame_listeners, listener]
-        if first:
-            self.settings(frames=True)
-
-    def remove_frame_listener(self, listener: Callable[[can.Message], None]) -> None:
-        self._frame_listeners = [f for f in self._frame_listeners if f is not listener]
-        if not self._frame_listeners:
-            self.settings(frames=False)
-
-    # -- readers ---------------------------------------------------------------------------------------------
-    def _read_state(self) -> None:
-        joints = len(self.joints)
-        axes = [self.axes[j] for j in self.joints]
-        while True:
-            data = self.state_lane.recv_bytes()
-            if data is None:
-                self._lost('state lane closed')
-                return
-            try:
-                state = cyclic.unpack(data, joints)
-            except ValueError as exc:
-                log.error('state lane: %s', exc)
-                continue
-            for axis, feedback in zip(axes, state.joints):
-                axis.on_feedback(feedback)
-            self.executor.lag, self.executor.stalls, self.state_drops = state.lag, state.stalls, state.dropped
-            for listener in self._feedback_listeners:
-                try:
-                    listener()
-                except Exception:
-                    log.exception('feedback listener failed')
-
-    def _read_stops(self) -> None:
-        while True:
-            try:
-                record = self.stop_lane.recv()
-            except Exception as exc:
-                log.error('stop lane: %s', exc)
-                continue
-            if record is None:
-                self._lost('stop lane closed')
-                return
-            self._answer(record)
-
-    def _read_requests(self) -> None:
-        while True:
-            try:
-                record = self.request_lane.recv()
-            except Exception as exc:
-                log.error('request lane: %s', exc)
-                continue
-            if record is None:
-                self._lost('request lane closed')
-                return
-            try:
-                self._on_report(record)
-            except Exception:
-                log.exception('handling %s failed', type(record).__name__)
-
-    def _answer(self, record: object) -> None:
-        if not isinstance(record, Reply | Failure):
-            return
-        with self._pending_lock:
-            future = self._pending.pop(record.id, None)
-        if future is None or future.done():
-            return
-        if isinstance(record, Reply):
-            value = record.value
-            if isinstance(value, StopOutcome):  # the joints' states first: the caller reads its effect
-                self._apply_states(value.states)
-                value = dict(value.errors)
-            elif isinstance(value, AxisStates):
-                self._apply_states(value)
-                value = None
-            future.set_result(value)
-        else:
-            future.set_exception(exception(record))
-
-    def _on_report(self, record: object) -> None:
-        if isinstance(record, Reply | Failure):
-            self._answer(record)
-        elif isinstance(record, AxisStates):
-            self._apply_states(record)
-        elif isinstance(record, Frames):
-            self.frame_drops = record.dropped
-            self._on_frames(record)
-        elif isinstance(record, BusEvent):
-            self.events = [*self.events[-(EVENTS_KEPT - 1):], record]
-            self._notify(self._event_listeners, record)
-        elif isinstance(record, EmcyEvent):
-            self._notify(self._emcy_listeners, record)
-        elif isinstance(record, HandleState):
-            self.executor.on_handle(record)
-        elif isinstance(record, CommandRefused):
-            for listener in self._refusal_listeners:
-                listener(record.topic, record.reason)
-        elif isinstance(record, Ready):
-            self._ready.set_result(record)
-        elif isinstance(record, StartFailed):
-            self._ready.set_exception(BusProcessStartError(record.message))
-        elif isinstance(record, Farewell):
-            log.info('bus process ends: %s', record.reason)
-
-    def _apply_states(self, states: AxisStates) -> None:
-        for snapshot, field, strategy in zip(states.snapshots, states.command_fields, states.strategies):
-            axis = self.axes.get(snapshot.joint)
-            if axis is not None:
-                axis.on_snapshot(snapshot, field, strategy)
-
-    @staticmethod
-    def _notify(listeners: Sequence[Callable[[Any], None]], record: object) -> None:
-        for listener in listeners:
-            try:
-                listener(record)
-            except Exception:
-                log.exception('listener failed')
-
-    def _on_frames(self, record: Frames) -> None:
-        listeners = self._frame_listeners
-        if not listeners:
-            return
-        for ts, can_id, ext, rtr, err, dlc, data, rx, fd in unpack_frames(record.data):
-            msg = can.Message(timestamp=ts, arbitration_id=can_id, is_extended_id=ext, is_remote_frame=rtr,
-                              is_error_frame=err, dlc=dlc, data=data, is_rx=rx, is_fd=fd, check=False)
-            for listener in listeners:
-                try:
-                    listener(msg)
-                except Exception:
-                    log.exception('frame listener failed')
 
     def _watch_child(self) -> None:
         process = self.process

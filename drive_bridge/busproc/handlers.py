@@ -3,14 +3,17 @@ as the ROS layer called it when both ran in one process."""
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from drive_bridge.busproc.errors import BoundaryError
 from drive_bridge.busproc.intents import (
+    TEST_HOOKS,
     AxisIntent,
     DirectCommands,
+    InjectSetpoint,
     Nmt,
     ParameterCall,
     Query,
@@ -20,7 +23,8 @@ from drive_bridge.busproc.intents import (
 )
 from drive_bridge.busproc.outbox import axis_states
 from drive_bridge.busproc.reports import CommandRefused, FeederState
-from drive_bridge.joint import JointError
+from drive_bridge.errors import RequestRefused
+from drive_bridge.joint import JointError, Setpoint
 from drive_bridge.master.master import Master
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS, Trajectory, TrajectoryError, TrajectoryPoint
@@ -126,6 +130,9 @@ class Handlers:
             return None
         if isinstance(body, ParameterCall):
             return self._parameter(body)
+        if isinstance(body, InjectSetpoint):
+            self._inject(body)
+            return None
         if isinstance(body, Query) and body.what == 'operational':
             master.wait_until_operational(body.timeout, list(body.joints) or None)
             return None
@@ -159,6 +166,15 @@ class Handlers:
         else:
             raise BoundaryError(f'unknown axis intent {action!r}')
         return axis_states([axis])  # the answer shows the intent's effect
+
+    def _inject(self, body: InjectSetpoint) -> None:
+        if os.environ.get(TEST_HOOKS) != '1':
+            raise RequestRefused(f'InjectSetpoint is a test hook: the bus process honours it only with {TEST_HOOKS}=1')
+        axis = self.master.axes.get(body.joint)
+        if axis is None:
+            raise JointError(f'unknown joint {body.joint!r}')
+        setpoint = Setpoint(body.position, body.velocity, body.effort)
+        axis.set_setpoint_source(lambda _t: setpoint)
 
     def _parameter(self, body: ParameterCall) -> object:
         access = self.master.parameter_access(body.node_id)

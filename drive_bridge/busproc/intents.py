@@ -171,6 +171,21 @@ class Settings:
     pvt_lookahead: float | None = None
 
 
+TEST_HOOKS = 'DRIVE_BRIDGE_TEST_HOOKS'  # environment: the bus process honours InjectSetpoint when '1'
+
+
+@dataclass(frozen=True)
+class InjectSetpoint:
+    """A test hook: from the next cycle the joint's set-point source returns this set-point, as a
+    buggy source would, past every check above the cycle's own (``docs/development.md``).
+    Refused unless the bus process runs with :data:`TEST_HOOKS` = 1 in its environment."""
+
+    joint: str
+    position: float | None = None
+    velocity: float | None = None
+    effort: float | None = None
+
+
 @dataclass(frozen=True)
 class Shutdown:
     """Stop motion (quick stop of enabled axes), release the bus, exit."""

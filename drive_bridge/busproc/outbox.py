@@ -51,7 +51,7 @@ class Outbox:
     def watch_axes(self, axes: Mapping[str, JointDriver]) -> None:
         """The axes whose snapshots are sent when their state changes (once the master started)."""
         self.axes = dict(axes)
-        self._keys = {joint: axis.state_key() for joint, axis in self.axes.items()}
+        self._keys = {joint: _key(axis) for joint, axis in self.axes.items()}
         self._changed = set(self.axes)
 
     def start(self) -> None:
@@ -92,7 +92,7 @@ class Outbox:
         """Cycle hook: mark the joints whose reported state changed (no snapshot built here)."""
         changed = False
         for joint, axis in self.axes.items():
-            key = axis.state_key()
+            key = _key(axis)
             if key != self._keys[joint]:
                 self._keys[joint] = key
                 self._changed.add(joint)
@@ -135,6 +135,12 @@ class Outbox:
                               msg.is_error_frame, msg.dlc, bytes(msg.data), msg.is_rx, msg.is_fd))
             data, count = pack_frames(batch)
             self.lane.send(Frames(data, count, self.dropped_frames))
+
+
+def _key(axis: JointDriver) -> tuple[object, ...]:
+    """What the node's view of an axis depends on: its reported state, and the mode the bridge
+    requests (the command field and the streaming strategy follow it)."""
+    return (*axis.state_key(), axis.mode)
 
 
 def axis_states(axes: list[JointDriver]) -> AxisStates:

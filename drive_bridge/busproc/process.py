@@ -79,7 +79,8 @@ class BusProcess:
         server.outbox.forward_frames = start.frames  # from the first frame: the node may record the boot
         master.start()
         executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
-                                      pvt_segment=start.pvt_segment, pvt_lookahead=start.pvt_lookahead)
+                                      pvt_segment=start.pvt_segment, pvt_lookahead=start.pvt_lookahead,
+                                      scale_to_limits=config.trajectory.scale_to_limits)
         master.add_cycle_listener(executor.check)
         master.add_emcy_listener(executor.on_emcy, safety=True)
         server.start(executor)

@@ -185,6 +185,8 @@ class HandleProxy:
         self.end = state.end
         self.state = state.state
         self.reason = state.reason
+        self.notes = state.notes
+        self.warnings = state.warnings
         self._done = threading.Event()
         self.update(state)
 

@@ -91,6 +91,8 @@ class HandleState:
     end: float
     state: str
     reason: str = ''
+    notes: tuple[str, ...] = ()  # what planning changed (past points dropped, segments stretched)
+    warnings: tuple[str, ...] = ()  # what it could not check (a joint without a velocity limit)
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ log = logging.getLogger('drive_bridge.busproc')
 
 WORKERS = 8  # requests that wait on the bus (SDO, NMT, parameters, axis intents) at once
 MAX_PENDING = 32  # of them running or waiting; more are refused at once
+TRAJECTORIES_PENDING = 16  # trajectories validated one at a time: this many running or waiting (a burst of small ones)
 
 
 class BusServer:
@@ -61,7 +62,7 @@ class BusServer:
         self.executor: TrajectoryExecutor | None = None
         self.handlers: Handlers | None = None
         self.workers = Workers(WORKERS, MAX_PENDING, 'drive_bridge-busproc')
-        self.trajectory_worker = Workers(1, 2, 'drive_bridge-trajectory')
+        self.trajectory_worker = Workers(1, TRAJECTORIES_PENDING, 'drive_bridge-trajectory')
         self._on_lost = on_lost
         self._on_shutdown = on_shutdown
         self._lost_once = threading.Lock()
@@ -283,5 +284,6 @@ class BusServer:
 
 
 def handle_state(handle: TrajectoryHandle) -> HandleState:
-    return HandleState(handle.id, handle.joints, handle.start, handle.end, handle.state, handle.reason)
+    return HandleState(handle.id, handle.joints, handle.start, handle.end, handle.state, handle.reason,
+                       handle.notes, handle.warnings)
 

@@ -23,10 +23,13 @@ from trajectory_msgs.msg import JointTrajectory
 from drive_bridge.busproc.client import BusClient
 from drive_bridge.busproc.executor import ExecutorProxy
 from drive_bridge.busproc.intents import JointCommand
+from drive_bridge.busproc.proxies import HandleProxy
 from drive_bridge.errors import DriveBridgeError, RequestRefused
 from drive_bridge.joint import JointError
 from drive_bridge.joint.limits import limit_problem
+from drive_bridge.master.events import BusEvent, EventKind
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
+from drive_bridge.ros.message_checks import NonFinite, check_joint_commands, check_trajectory_points
 from drive_bridge.ros.message_limits import (
     MalformedMessage,
     MessageTooLarge,
@@ -40,6 +43,16 @@ LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one top
 
 class CommandRefused(DriveBridgeError, ValueError):
     pass
+
+
+def log_accepted(node: Node, handle: HandleProxy, points: int) -> None:
+    """One line per accepted trajectory, with what planning changed; what it could not check
+    (a joint without a velocity limit, naming the key) as a warning."""
+    notes = ''.join(f'; {note}' for note in handle.notes)
+    node.get_logger().info(f'trajectory {handle.id}: {points} point(s) for {", ".join(handle.joints)}, '
+                           f'{handle.end - handle.start:.3f} s{notes}')
+    for warning in handle.warnings:
+        node.get_logger().warning(f'trajectory {handle.id}: {warning}')
 
 
 class CommandTopics:
@@ -75,6 +88,11 @@ class CommandTopics:
             self._last_log[topic] = now
             self.node.get_logger().warning(text)
 
+    def on_event(self, event: BusEvent) -> None:
+        """A set-point the cycle refused (whatever produced it) is a refused command too."""
+        if event.kind is EventKind.SETPOINT_REFUSED:
+            self.errors.publish(String(data=f'cycle check: refused: {event.message}'))
+
     def _inactive(self, topic: str) -> bool:
         if self.master.lost:
             self.refuse(topic, self.master.lost)
@@ -97,6 +115,11 @@ class CommandTopics:
         except Exception as exc:  # the middleware's own error for bytes it cannot read
             self.refuse(topic, str(MalformedMessage(f'not a trajectory_msgs/JointTrajectory: {exc}')))
             return
+        try:
+            check_trajectory_points(msg.points)
+        except NonFinite as exc:
+            self.refuse(topic, str(exc))
+            return
         joints = list(msg.joint_names)
         unknown = [j for j in joints if j not in self.master.axes]
         if unknown:  # before the bus process spends any time on it
@@ -117,9 +140,7 @@ class CommandTopics:
             return
         handle = future.result()
         if handle is not None:
-            self.node.get_logger().info(
-                f'trajectory {handle.id}: {points} point(s) for {", ".join(handle.joints)}, '
-                f'{handle.end - handle.start:.3f} s')
+            log_accepted(self.node, handle, points)
 
     # -- direct commands -------------------------------------------------------------------------
     def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:
@@ -164,6 +185,11 @@ class CommandTopics:
             if values and len(values) != len(msg.name):
                 self.refuse(topic, f'{len(values)} {field} value(s) for {len(msg.name)} name(s)')
                 return
+        try:
+            check_joint_commands(msg.name, {f: getattr(msg, f) for f in ('position', 'velocity', 'effort')})
+        except NonFinite as exc:
+            self.refuse(topic, str(exc))
+            return
         commands: dict[str, dict[str, float | None]] = {}
         for i, joint in enumerate(msg.name):
             wanted = self.master.axes[joint].command_field()

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
@@ -22,13 +23,15 @@ def _ms(value: float) -> str:
     return f'{value * 1000:.2f} ms'
 
 
-def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '') -> DiagnosticStatus:
+def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '',
+               boundary: Mapping[str, object] | None = None) -> DiagnosticStatus:
     status = DiagnosticStatus(name=f'{PREFIX}: bus {snapshot.channel}', hardware_id=f'can {snapshot.channel}')
     traffic = snapshot.traffic
     values = dict(node=node_name, bus_state=snapshot.bus_state, rx_frames=traffic.rx_frames,
                   tx_frames=traffic.tx_frames, frames_per_second=f'{traffic.frames_per_second:.0f}',
                   bus_load=f'{traffic.load * 100:.1f} % (nominal, no stuff bits)')
     status.level, status.message = OK, 'bus open'
+    values.update(boundary or {})
     health = snapshot.health
     if health is not None:
         values.update(recv_errors=health.recv_errors, send_errors=health.send_errors,
@@ -81,6 +84,8 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     elif axis.drive_state is DriveState.FAULT or (axis.fault and axis.drive_state is DriveState.STOPPING):
         emcy = f': 0x{axis.last_emcy.code:04X} {axis.last_emcy.text}' if axis.last_emcy else ''
         status.level, status.message = ERROR, f'{axis.state_label}{emcy}'
+    elif axis.setpoint_refused:
+        status.level, status.message = ERROR, axis.setpoint_refused
     elif axis.command_stale or axis.warning:
         status.level = WARN
         status.message = axis.message if axis.command_stale else f'{axis.state_label}, drive warning bit set'
@@ -99,9 +104,10 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     return status
 
 
-def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '') -> DiagnosticArray:
-    """``lost``: why the bus process is gone ('' while it runs)."""
+def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '',
+                boundary: Mapping[str, object] | None = None) -> DiagnosticArray:
+    """``lost``: why the bus process is gone ('' while it runs); ``boundary``: its figures."""
     array = DiagnosticArray()
-    array.status = [bus_status(snapshot, node_name, lost), *(node_status(n) for n in snapshot.nodes),
+    array.status = [bus_status(snapshot, node_name, lost, boundary), *(node_status(n) for n in snapshot.nodes),
                     *(axis_status(a) for a in snapshot.axes)]
     return array

@@ -13,6 +13,7 @@ from drive_bridge.ros.bridge import StartupError
 from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 
+
 def lower_priority(increment: int) -> None:
     """Once the bus process runs: this (node) process yields the CPU to it (nice + increment), so
     the SYNC cycle runs first when a client floods the node. The bus process keeps its own

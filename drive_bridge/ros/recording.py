@@ -10,6 +10,7 @@ both on one timeline (their ``header.stamp`` as log time). Bus events go in as
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -70,9 +71,13 @@ def record_parameters(values: dict[str, Any]) -> RecordParameters:
                                   split_seconds=float(values['split_seconds']), start=bool(values['start']))
     except (TypeError, ValueError) as exc:
         raise BagError(f'parameters record.*: {exc}') from None
-    for name in ('split_size_mb', 'split_seconds'):
-        if getattr(params, name) < 0:
-            raise BagError(f'parameter record.{name} must be >= 0, got {getattr(params, name)}')
+    for name, high in (('split_size_mb', 1e6), ('split_seconds', 86400.0)):
+        value = getattr(params, name)
+        if value < 0:
+            raise BagError(f'parameter record.{name} must be >= 0, got {value}')
+        if not math.isfinite(value) or value > high:  # 0 = no limit; a finite bound that means something
+            raise BagError(f'parameter record.{name} must be a finite number in 0..{high:g} (0 = no limit), '
+                           f'got {value}')
     if not params.path:
         raise BagError('parameter record.path must name a directory, got an empty string')
     return params
@@ -147,9 +152,11 @@ class RecordControl:
         while path.exists():
             path, suffix = base / f'{name}_{suffix}', suffix + 1
         split_bytes = round(self.params.split_size_mb * 1e6) or None
+        since = self.master.frame_drops  # the boundary's count: this recording's share from now
         self.recorder = Recorder(path, channel=channel, split_bytes=split_bytes,
                                  split_seconds=self.params.split_seconds or None, config_yaml=self.config_text,
-                                 files=config_files(self.config))
+                                 files=config_files(self.config),
+                                 upstream_drops=lambda: self.master.frame_drops - since)
         self._listener = self.recorder.on_frame
         self.master.add_frame_listener(self._listener)
         self.node.get_logger().info(f'recording to {path}')
@@ -208,12 +215,15 @@ class RecordControl:
             return status
         recording = self.recorder is not None
         status.values = _values(recording=recording, path=stats.path, frames=stats.frames, messages=stats.messages,
-                                dropped=stats.dropped, queued=stats.queued, bytes=stats.bytes, split=stats.split,
+                                dropped=stats.dropped, dropped_upstream=stats.dropped_upstream, queued=stats.queued,
+                                bytes=stats.bytes, split=stats.split,
                                 closed_splits=stats.splits, error=stats.error)
         if stats.error:
             status.level, status.message = DiagnosticStatus.ERROR, f'recording failed: {stats.error}'
-        elif stats.dropped:
-            status.level, status.message = DiagnosticStatus.WARN, f'{stats.dropped} frames/messages dropped'
+        elif stats.dropped or stats.dropped_upstream:
+            status.level, status.message = DiagnosticStatus.WARN, (
+                f'{stats.dropped + stats.dropped_upstream} frames/messages dropped '
+                f'({stats.dropped_upstream} before the recorder, in the bus process)')
         else:
             status.level = DiagnosticStatus.OK
             status.message = f'recording to {stats.path}' if recording else f'stopped; last bag {stats.path}'

@@ -202,7 +202,10 @@ class StateTopics:
 
     # -- diagnostics (executor) ------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
-        array = diagnostics(self.master.snapshot(), self.node.get_fully_qualified_name(), self.master.lost)
+        client = self.master
+        boundary = {'bus_process': client.pid, 'frames_dropped_at_boundary': client.frame_drops,
+                    'cyclic_states_dropped': client.state_drops, 'commands_coalesced': client.commands.coalesced}
+        array = diagnostics(client.snapshot(), self.node.get_fully_qualified_name(), client.lost, boundary)
         array.status.extend(source() for source in self.diagnostic_sources)
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._publish(self.diagnostics, array)
