@@ -11,7 +11,6 @@ import json
 import os
 import sys
 import threading
-import time
 from pathlib import Path
 
 from bench.ros_cycle import WARMUP, Window, trajectory_points
