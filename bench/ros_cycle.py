@@ -367,9 +367,9 @@ def subscriber_role(joints: int, out: str, stream: bool, seconds: float) -> None
     sys.stdin.readline()  # 'go': the bridge's axes are all enabled (a trajectory before that is refused)
     if stream:  # one trajectory on every axis from where they are, outlasting the window
         names = sorted(latest, key=lambda n: int(n[1:]))
-        msg = JointTrajectory(joint_names=names)
-        start = time.time() + 0.3
-        msg.header.stamp.sec, msg.header.stamp.nanosec = int(start), int((start % 1) * 1e9)
+        msg = JointTrajectory(joint_names=names)  # stamp zero: it starts when the bridge takes it
+        # (a stamp the message's delivery overtakes would be refused: its start in the past, the
+        # lead-in to the first future point faster than the joint's limit)
         for t, positions, velocities in trajectory_points([latest[j] for j in names], seconds + WARMUP):
             msg.points.append(JointTrajectoryPoint(
                 positions=positions, velocities=velocities,

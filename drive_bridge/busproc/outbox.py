@@ -2,7 +2,8 @@
 thread (the cycle, the CAN receive thread, supervision) ever waits for the node process.
 
 - Records (answers, events, EMCY, handle changes) queue in :attr:`Outbox.records`, at most
-  :data:`MAX_RECORDS`; beyond that the oldest non-answer records are dropped and counted.
+  :data:`MAX_RECORDS`; beyond that a new record that is not an answer is dropped and counted
+  (answers always go: a request waits for its own, and there are as many as requests in flight).
 - Axis snapshots are not queued: the cycle marks a joint changed (a cheap ``state_key``
   compare) and the sender builds and sends the snapshots of the marked joints.
 - Frames for recording queue as python-can messages (:meth:`on_frame`, a tap listener: one
@@ -66,18 +67,11 @@ class Outbox:
 
     # -- producers (any thread; keep them short) ----------------------------------------------
     def put(self, record: object) -> None:
-        if len(self.records) >= MAX_RECORDS:
-            self._shed()
+        if len(self.records) >= MAX_RECORDS and not isinstance(record, Reply | Failure):
+            self.dropped_records += 1
+            return
         self.records.append(record)
         self._wake.set()
-
-    def _shed(self) -> None:
-        """Drop the oldest record that is not an answer (a request waits for its answer)."""
-        for index, record in enumerate(self.records):
-            if not isinstance(record, Reply | Failure):
-                del self.records[index]
-                self.dropped_records += 1
-                return
 
     def on_frame(self, msg: can.Message) -> None:
         """Frame tap listener (bus threads, the cycle's among them)."""
