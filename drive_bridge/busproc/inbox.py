@@ -31,6 +31,7 @@ from drive_bridge.busproc.reports import (
 )
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.master.events import BusEvent
+from drive_bridge.master.master import BusSnapshot
 
 log = logging.getLogger('drive_bridge.busproc')
 
@@ -60,6 +61,12 @@ class Inbox:
         self._frame_listeners: list[Callable[[can.Message], None]] = []
         self._lost_listeners: list[Callable[[str], None]] = []
         self._refusal_listeners: list[Callable[[str, str], None]] = []
+        self.final: BusSnapshot | None = None  # the bus process's last snapshot, when it ended on request
+
+    @property
+    def frame_listeners(self) -> tuple[Callable[[can.Message], None], ...]:
+        """Who wants the frames now (frames cross from the bus process while any does)."""
+        return tuple(self._frame_listeners)
 
     def _lost(self, reason: str) -> None:
         raise NotImplementedError
@@ -192,6 +199,7 @@ class Inbox:
             self._ready.set_exception(BusProcessStartError(record.message))
         elif isinstance(record, Farewell):
             log.info('bus process ends: %s', record.reason)
+            self.final = record.final
 
     def _apply_states(self, states: AxisStates) -> None:
         for snapshot, field, strategy in zip(states.snapshots, states.command_fields, states.strategies):

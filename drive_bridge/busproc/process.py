@@ -108,11 +108,12 @@ class BusProcess:
                 log.warning('axes held (on_node_loss: hold): the bus keeps running until this process '
                             'gets SIGTERM (pid %d)', os.getpid())
                 self._wait_for_sigterm()
-        if server is not None and asked:
-            try:
-                server.outbox.put(Farewell(reason))
-            except Exception:
-                pass
+        if server is not None and master is not None and asked:
+            try:  # the bus stopped first: its last counts go with the farewell
+                master.stop()
+                server.outbox.put(Farewell(reason, master.snapshot()))
+            except Exception as exc:
+                log.warning('farewell: %r', exc)
         self._release()
         self.done.set()
 

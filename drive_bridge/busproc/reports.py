@@ -15,6 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from drive_bridge.joint.snapshot import AxisSnapshot
+from drive_bridge.master.master import BusSnapshot
 from drive_bridge.streaming.pvt import PvtStats
 
 FRAMES_PER_BATCH = 2000  # frames per Frames message (~42 kB)
@@ -123,9 +124,12 @@ class Frames:
 
 @dataclass(frozen=True)
 class Farewell:
-    """The bus process ends on purpose (``reason``) after stopping the axes."""
+    """The bus process ends on purpose (``reason``) after stopping the axes and the bus; ``final``:
+    the bus as it was then (its traffic counts are the last: a recording can be checked against
+    them)."""
 
     reason: str
+    final: BusSnapshot | None = None
 
 
 def pack_frames(frames: Iterable[FrameFields]) -> tuple[bytes, int]:
