@@ -63,7 +63,9 @@ TRAJECTORY_MARGIN = 15.0  # s of trajectory beyond warm-up and window: start-up,
 # maps (target position + velocity), RPDO 1 of the compact maps (controlword + target position)
 RPDO_SETPOINT = {'default': 0x300, 'compact': 0x200}
 MAPS = tuple(RPDO_SETPOINT)
-VARIANTS = ('bridge', 'rt', 'naive', 'core')
+VARIANTS = ('bridge', 'rt', 'naive', 'core', 'single')
+# 'single': the bridge of another checkout (--baseline, e.g. before the bus process: one process)
+BASELINE: dict[str, Path] = {}
 REALTIME_PRIORITY = 50  # the rt variant: the bridge with master.realtime_priority (SCHED_FIFO)
 
 
@@ -411,10 +413,10 @@ def probe_role(period: float, seconds: float, out: str) -> None:
 
 # --- the orchestrator ---------------------------------------------------------------------------
 
-def _popen(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[str]:
+def _popen(args: list[str], env: dict[str, str], log: Path, cwd: Path = REPO) -> subprocess.Popen[str]:
     with log.open('a') as stderr:  # the children's logs: read when a case fails
         return subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, text=True,
-                                env=env, cwd=REPO)
+                                env=env, cwd=cwd)
 
 
 def _expect(process: subprocess.Popen[str], word: str, what: str, timeout: float = 60.0) -> None:
@@ -433,6 +435,11 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
     config = work / f'{channel}.yaml'
     config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps, realtime=variant == 'rt')))
     me = [sys.executable, '-m', 'bench.ros_cycle']
+    bridge_me, bridge_env, bridge_variant = me, env, variant
+    if variant == 'single':  # the other checkout's bridge, with its own venv and code
+        base = BASELINE['dir']
+        bridge_me = [str(base / '.venv' / 'bin' / 'python'), '-m', 'bench.ros_cycle']
+        bridge_env, bridge_variant = {**env, 'PYTHONPATH': str(base)}, 'bridge'
     log = work / f'{channel}.log'
     # rt: the simulated drives at the bridge's cycle priority too, else its SCHED_FIFO cycle starves them
     realtime = ['chrt', '-f', str(REALTIME_PRIORITY)] if variant == 'rt' and shutil.which('chrt') else []
@@ -441,12 +448,13 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
     try:
         for _ in range(axes):
             _expect(sim, 'simulating', 'drive-bridge sim')
-        bridge = _popen([*me, '--role', 'bridge', '--variant', variant, '--config', str(config),
-                         '--seconds', str(seconds), '--out', str(work / f'{channel}.bridge.json')], env, log)
+        bridge = _popen([*bridge_me, '--role', 'bridge', '--variant', bridge_variant, '--config', str(config),
+                         '--seconds', str(seconds), '--out', str(work / f'{channel}.bridge.json')], bridge_env, log,
+                        cwd=BASELINE['dir'] if variant == 'single' else REPO)
         processes.append(bridge)
         sub = None
         if variant != 'core':  # the core variant publishes nothing: no subscriber
-            stream = ['--stream'] if variant in ('bridge', 'rt') else []
+            stream = ['--stream'] if variant in ('bridge', 'rt', 'single') else []
             sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--seconds', str(seconds),
                           '--out', str(work / f'{channel}.sub.json'), *stream], env, log)
             processes.append(sub)
@@ -575,6 +583,24 @@ def ratio_row(bridge: dict, naive: dict, period: float, label: str = 'bridge') -
             f'{"":6} {_ratio(naive["js_p99"], bridge["js_p99"]):>6} {_ratio(naive["cpu"], bridge["cpu"]):>5}')
 
 
+def goal_line(results: dict[str, dict]) -> str:
+    """The bus process's goals as ratios in this run: bridge skipped / core skipped (<= 1.5), rt
+    skipped share - the bare loop's (<= 0.5 points), CPU and js p99 against the single process."""
+    def share(r: dict) -> float:
+        return r['skipped'] / max(1, r['skipped'] + r['cycles'])
+    parts = []
+    bridge, core, rt, single = (results.get(v) for v in ('bridge', 'core', 'rt', 'single'))
+    if bridge and core:
+        parts.append(f'skipped bridge/core {_ratio(bridge["skipped"], core["skipped"])}'.replace('×', '') + ' (<= 1.5)')
+    if rt:
+        parts.append(f'rt - floor {100 * (share(rt) - rt["idle_skip"]):+.1f} points (<= 0.5)')
+    if bridge and single:
+        parts.append(f'CPU bridge/single {bridge["cpu"] / single["cpu"]:.2f} (<= 1.3)' if single['cpu'] else '')
+        parts.append(f'js p99 bridge {bridge["js_p99"] * 1e3:.2f} ms, single {single["js_p99"] * 1e3:.2f} ms')
+        parts.append(f'skipped bridge/single {_ratio(bridge["skipped"], single["skipped"])}'.replace('×', ''))
+    return '; '.join(p for p in parts if p)
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(prog='python -m bench ros_cycle', description=__doc__.split('\n\n')[0])
     parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe', 'flood'], help=argparse.SUPPRESS)
@@ -589,7 +615,11 @@ def main(argv: list[str]) -> None:
     parser.add_argument('--axes', type=int, nargs='+', default=[1, 2, 4, 6, 8])
     parser.add_argument('--periods', type=float, nargs='+', default=[1, 2, 4, 10], help='SYNC periods in ms')
     parser.add_argument('--seconds', type=float, default=10.0, help='measurement window per case (default 10)')
-    parser.add_argument('--variants', nargs='+', default=list(VARIANTS), choices=VARIANTS)
+    parser.add_argument('--variants', nargs='+', default=None, choices=VARIANTS,
+                        help='default: bridge rt naive core, and single with --baseline')
+    parser.add_argument('--baseline', type=Path,
+                        help="another checkout (bootstrapped) whose bridge runs as the variant 'single', e.g. the "
+                             'last commit before the bus process, for the same figures of both in one run')
     parser.add_argument('--maps', choices=MAPS, default='default',
                         help="PDO maps: the family's default (2 RPDOs + 2 TPDOs per axis) or compact (1 + 1 "
                              'per cycle, the statusword on change)')
@@ -605,6 +635,12 @@ def main(argv: list[str]) -> None:
         return subscriber_role(args.joints, args.out, args.stream, args.seconds)
     if args.role == 'probe':
         return probe_role(args.period, args.seconds, args.out)
+    if args.variants is None:
+        args.variants = [v for v in VARIANTS if v != 'single' or args.baseline]
+    if args.baseline is not None:
+        BASELINE['dir'] = args.baseline.resolve()
+    elif 'single' in args.variants:
+        parser.error('the variant single needs --baseline DIR')
     if args.quick:
         args.axes, args.periods, args.seconds = [1, 4], [4], 3.0
     if args.floods is not None and '--axes' not in argv:
@@ -640,6 +676,9 @@ def main(argv: list[str]) -> None:
                 for ours in ('bridge', 'rt'):
                     if ours in results and 'naive' in results:
                         print(ratio_row(results[ours], results['naive'], period_ms / 1000, ours), flush=True)
+                goals = goal_line(results)
+                if goals:
+                    print(f'{"":14} {"goals":6} {goals}', flush=True)
 
 
 def flood_table(args: argparse.Namespace, work: Path, env: dict[str, str]) -> None:

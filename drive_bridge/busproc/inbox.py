@@ -173,6 +173,8 @@ class Inbox:
                 value = None
             future.set_result(value)
         else:
+            if record.states is not None:  # the joint's state after the failed intent, first
+                self._apply_states(record.states)
             future.set_exception(exception(record))
 
     def _on_report(self, record: object) -> None:

@@ -47,6 +47,17 @@ class Reply:
 
 
 @dataclass(frozen=True)
+class AxisStates:
+    """The joints whose state, mode or flags changed (or all, every ``outbox.REFRESH``), with
+    what their drivers say of the current mode: the field a direct command carries and how a
+    trajectory is streamed (None: none)."""
+
+    snapshots: tuple[AxisSnapshot, ...]
+    command_fields: tuple[str | None, ...]
+    strategies: tuple[str | None, ...]
+
+
+@dataclass(frozen=True)
 class Failure:
     """A request that failed: ``kind`` names the error class (``sdo``, ``joint``,
     ``trajectory``, ``parameter``, ``value``, ``timeout``, ``busy``, ``boundary``,
@@ -61,17 +72,7 @@ class Failure:
     index: int = 0
     subindex: int = 0
     reason: str = ''  # SdoError.reason: the message without the address
-
-
-@dataclass(frozen=True)
-class AxisStates:
-    """The joints whose state, mode or flags changed (or all, every ``outbox.REFRESH``), with
-    what their drivers say of the current mode: the field a direct command carries and how a
-    trajectory is streamed (None: none)."""
-
-    snapshots: tuple[AxisSnapshot, ...]
-    command_fields: tuple[str | None, ...]
-    strategies: tuple[str | None, ...]
+    states: AxisStates | None = None  # an axis intent's joint after the failure (e.g. its mode restored)
 
 
 @dataclass(frozen=True)

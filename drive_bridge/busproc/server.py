@@ -13,6 +13,7 @@ When a lane reports end of stream the node process is gone: :mod:`.safestop` run
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 from collections.abc import Callable
@@ -24,6 +25,7 @@ from drive_bridge.busproc.errors import BoundaryError
 from drive_bridge.busproc.failures import failure
 from drive_bridge.busproc.handlers import Handlers
 from drive_bridge.busproc.intents import (
+    AxisIntent,
     DirectCommands,
     Query,
     Request,
@@ -250,7 +252,8 @@ class BusServer:
             else:
                 self._submit(request.id, lambda: self._watched(handlers.submit(body.source, trajectory)))
         else:
-            self._submit(request.id, lambda: handlers.run(body), self.workers)
+            joint = body.joint if isinstance(body, AxisIntent) else None
+            self._submit(request.id, lambda: handlers.run(body), self.workers, joint)
 
     def _watched(self, handle: TrajectoryHandle | None) -> HandleState | None:
         if handle is None:
@@ -258,12 +261,17 @@ class BusServer:
         self.watch(handle)
         return handle_state(handle)
 
-    def _submit(self, request_id: int, work: Callable[[], Any], workers: Workers | None = None) -> None:
+    def _submit(self, request_id: int, work: Callable[[], Any], workers: Workers | None = None,
+                joint: str | None = None) -> None:
+        """Run ``work`` in a worker; a failed axis intent's answer carries its ``joint``'s state."""
         def run() -> None:
             try:
                 self.outbox.put(Reply(request_id, work()))
             except Exception as exc:
-                self.outbox.put(failure(request_id, exc))
+                record = failure(request_id, exc)
+                if joint is not None and joint in self.master.axes:
+                    record = dataclasses.replace(record, states=axis_states([self.master.axes[joint]]))
+                self.outbox.put(record)
         try:
             (workers or self.trajectory_worker).submit(run)
         except Busy as exc:
