@@ -8,14 +8,21 @@ import os
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
 
+from typing import TYPE_CHECKING  # noqa: E402
+
 import pytest  # noqa: E402
 
-from rostools import RosHarness, remove_stale_dds_segments, ros_harness  # noqa: E402
+from ddstools import remove_stale_dds_segments  # noqa: E402
+
+if TYPE_CHECKING:
+    from rostools import RosHarness
 
 
 @pytest.fixture
 def ros() -> RosHarness:
-    """A private rclpy context with a spinning executor, shut down after the test."""
+    """A private rclpy context with a spinning executor, shut down after the test (rclpy is
+    imported here, not at the top: the core tests run without it)."""
+    from rostools import ros_harness
     with ros_harness() as harness:
         yield harness
 

@@ -11,7 +11,7 @@ import can
 from drive_bridge.bag.recorder import Recorder
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.writer import string_cdr
-from rostools import wait_for
+from waittools import wait_for
 
 
 def frame(i: int) -> can.Message:

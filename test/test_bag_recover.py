@@ -23,7 +23,7 @@ from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.typestore import typestore
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
-from rostools import wait_for
+from waittools import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACES = next((p / 'shared' / 'realdata' / 'traces' for p in ROOT.parents if (p / 'shared').is_dir()), ROOT)

@@ -20,7 +20,7 @@ import pytest
 
 from drive_bridge.master.guarding import GuardEvent, GuardEventKind, NodeGuard, configure_guarding
 from drive_bridge.model import NodeConfig
-from rostools import wait_for
+from waittools import wait_for
 
 NODE_ID = 5
 COB_ID = 0x700 + NODE_ID

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import yaml
 from drive_bridge_interfaces.msg import CanFrame
 
@@ -27,19 +28,30 @@ def test_second_bootstrap_is_a_fast_no_op() -> None:
     assert elapsed < 10, f'bootstrap took {elapsed:.1f} s with everything in place'
 
 
-def test_demo_bridge_publishes_until_sigint(ros: RosHarness) -> None:
+def _as_background_shell() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@pytest.mark.parametrize('signum, started', [(signal.SIGINT, 'from a terminal'),
+                                             (signal.SIGINT, 'by a background shell'),
+                                             (signal.SIGTERM, 'by a background shell')],
+                         ids=['SIGINT', 'SIGINT, inherited ignored', 'SIGTERM, SIGINT inherited ignored'])
+def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, signum: int, started: str) -> None:
+    """Stopped by the signal whatever it inherited: a background shell starts it with SIGINT ignored."""
     exe = Path(sys.prefix) / 'bin' / 'bridge'
-    proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                            preexec_fn=_as_background_shell if started == 'by a background shell' else None)
     try:
         frames: list[CanFrame] = []
         ros.node('watcher').create_subscription(CanFrame, '/drive_bridge/can_frames', frames.append, 100)
         wait_for(lambda: len(frames) >= 20, 30, '20 frames from the demo bridge')
         assert all(f.header.frame_id == 'drive_bridge_demo' for f in frames)
         assert proc.poll() is None
-        os.killpg(proc.pid, signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
-        assert proc.returncode == 0, out
+        os.killpg(proc.pid, signum)
+        out, _ = proc.communicate(timeout=30)
+        assert proc.returncode == 0, out  # a clean stop: motion stopped, the bus released
+        assert 'Traceback' not in out, out
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
