@@ -1,4 +1,4 @@
-"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak] [options]``: run a benchmark
+"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak|cycle|reactions] [options]``: run a benchmark
 and print its table."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 BENCHMARKS = {'tracking': 'bench.tracking', 'memory': 'bench.memory', 'recording': 'bench.recording',
               'diagnose': 'bench.diagnose', 'transport': 'bench.transport', 'ros_cycle': 'bench.ros_cycle',
-              'soak': 'bench.soak'}
+              'soak': 'bench.soak', 'cycle': 'bench.cycle', 'reactions': 'bench.reactions'}
 
 
 def main() -> None:

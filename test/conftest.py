@@ -3,6 +3,7 @@ shared memory left by the processes the tests kill."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 # Set before anything imports rclpy: the RMW reads these at rclpy.init().
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
@@ -11,11 +12,36 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
 from typing import TYPE_CHECKING  # noqa: E402
 
 import pytest  # noqa: E402
+from _pytest.mark.expression import Expression  # noqa: E402
 
 from ddstools import remove_stale_dds_segments  # noqa: E402
+from markertools import module_kinds  # noqa: E402
 
 if TYPE_CHECKING:
     from rostools import RosHarness
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """Under ``-m "not ros"`` a module that imports ROS is not even imported: the core tests run
+    without rclpy (``make test-fast``)."""
+    markexpr = config.getoption('markexpr', '')
+    if not markexpr or collection_path.suffix != '.py' or not collection_path.name.startswith('test_'):
+        return None
+    kinds = module_kinds(collection_path)
+    if 'ros' not in kinds:
+        return None
+    selected = Expression.compile(markexpr).evaluate(lambda name, **_: name in kinds)
+    return True if not selected else None
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Mark each test ``ros`` / ``sim`` by what it uses (markertools); ``slow`` is explicit."""
+    for item in items:
+        kinds = module_kinds(Path(str(item.fspath)))
+        if 'ros' in kinds or 'ros' in getattr(item, 'fixturenames', ()):
+            item.add_marker(pytest.mark.ros)
+        if 'sim' in kinds:
+            item.add_marker(pytest.mark.sim)
 
 
 @pytest.fixture

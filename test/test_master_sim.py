@@ -47,6 +47,7 @@ def test_boots_three_drives_and_enables_every_axis() -> None:
         assert sim.drive(3).nmt_state == 'OPERATIONAL'
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('joint', JOINTS)
 def test_each_axis_moves_in_pp_pv_csp_and_csv(joint: str) -> None:
     with running(config_from(demo_data())) as (master, sim):

@@ -622,6 +622,7 @@ def test_vendor_parameters_through_the_object_channel() -> None:
         assert sim.drive(X).store.defaults[TABLE['VLIM'].index << 8 | 1] == 2000  # saved: the power-on value
 
 
+@pytest.mark.slow
 def test_modes_change_only_at_standstill_and_take_the_family_names() -> None:
     with bridge(example()) as (master, sim, sniffer):
         axis = enabled(master)

@@ -128,6 +128,7 @@ def test_replay_onto_a_bus_is_interrupted_releases_the_bus_and_says_so(long_bag:
     assert not tool.sockets(), 'the bus released'
 
 
+@pytest.mark.sim
 def test_sim_stops_on_sigint_and_releases_the_bus(can_dir: Path) -> None:
     config = Path(__file__).resolve().parent.parent / 'config' / 'demo.yaml'
     tool = Tool(['sim', str(config), '--interface', 'local', '--channel', 'sim'], can_dir)
