@@ -26,6 +26,7 @@ from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
 from rostools import RosHarness, wait_for
+from timingtools import BUSY_SLACK, CycleWatch, stamp_of, stamped_count
 
 JOINTS = ['base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint']
 SLOTS = {'base_joint': (2, 0), 'shoulder_joint': (3, 0), 'elbow_joint': (3, 1), 'lift_joint': (4, 0)}
@@ -77,14 +78,17 @@ def latest_positions(states: Recorder) -> dict[str, float]:
 def test_joint_states_arrive_stamped_in_si_every_cycle(ros: RosHarness, bridge: BusNode) -> None:
     states = Recorder(ros, JointState, '/joint_states')
     wait_for(lambda: len(states.messages) > 60, 10, '60 joint states')
-    started = len(states.messages)
+    watch, start = CycleWatch(bridge.master), time.time()
     time.sleep(0.5)
-    rate = (len(states.messages) - started) / 0.5
-    assert rate > 100, f'{rate:.0f} joint states/s at a 4 ms SYNC'  # one per SYNC (250/s), generous
+    cycles, end = watch.cycles, time.time()
+    time.sleep(0.3)  # what was published in the window arrives
+    published = stamped_count(states.messages, start, end)
+    # one per SYNC: counted against the cycles the bridge ran (on a busy machine fewer than the
+    # 125 of the grid), generous for messages a lagging subscriber misses
+    assert cycles > 0 and published > 0.5 * cycles, (published, cycles)
     msg = states.messages[-1]
     assert list(msg.name) == JOINTS
-    stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-    assert abs(stamp - time.time()) < 0.5
+    assert abs(stamp_of(msg) - time.time()) < BUSY_SLACK
     stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in states.messages[-50:]]
     assert all(b >= a for a, b in zip(stamps, stamps[1:]))
     for joint, position in latest_positions(states).items():
