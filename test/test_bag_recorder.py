@@ -32,7 +32,7 @@ def test_a_full_queue_drops_and_counts_without_blocking(tmp_path: Path) -> None:
     started = time.monotonic()
     for i in range(550):
         recorder.on_frame(frame(i))
-    assert time.monotonic() - started < 1.0  # the producer never waited
+    assert time.monotonic() - started < 5.0  # the producer never waited (for the held writer: 10 s)
     assert recorder.stats().dropped == 50 and recorder.stats().queued == 500
     release.set()
     stats = recorder.stop()

@@ -25,7 +25,8 @@ def test_second_bootstrap_is_a_fast_no_op() -> None:
     elapsed = time.monotonic() - started
     assert run.returncode == 0, run.stderr
     assert 'installing' not in run.stderr and 'building' not in run.stderr, run.stderr
-    assert elapsed < 10, f'bootstrap took {elapsed:.1f} s with everything in place'
+    # a full bootstrap takes 1.5 min on a quiet machine; a no-op about 2 s (more on a busy one)
+    assert elapsed < 30, f'bootstrap took {elapsed:.1f} s with everything in place'
 
 
 def _as_background_shell() -> None:

@@ -56,3 +56,14 @@ def stamped_count(messages: Sequence[Any], start: float, end: float) -> int:
     """How many of ``messages`` (with a header) were stamped in [start, end): a rate counted by
     the publisher's clock, not by arrival, so that a delivery backlog after a stall does not count."""
     return sum(1 for m in list(messages) if start <= stamp_of(m) < end)
+
+
+def assert_follows(errors: Sequence[float], tolerance: float, limit: float | None = None, share: float = 0.95) -> None:
+    """A stream followed its path: ``share`` of the samples' errors within ``tolerance``, every
+    one within ``limit`` (default 3 x tolerance: a cycle stalled on a busy machine). The figures
+    themselves: `python -m bench tracking`."""
+    assert errors, 'no path samples'
+    limit = 3 * tolerance if limit is None else limit
+    within, worst = quantile(errors, share), max(errors)
+    assert within < tolerance and worst < limit, \
+        f'path error {100 * share:.0f} % {within:.4f} (bound {tolerance}), max {worst:.4f} (bound {limit})'
