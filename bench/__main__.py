@@ -1,5 +1,5 @@
-"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak|cycle|reactions] [options]``: run a benchmark
-and print its table."""
+"""``python -m bench [tracking|memory|recording|diagnose|transport|ros_cycle|soak|cycle|reactions]
+[options]``: run a benchmark and print its table."""
 from __future__ import annotations
 
 import os

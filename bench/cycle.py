@@ -20,6 +20,7 @@ meanwhile) and, where the case adds a load, beside the same bus without it in th
 from __future__ import annotations
 
 import argparse
+import logging
 import statistics
 import tempfile
 import time
@@ -71,19 +72,22 @@ def skip_share(master: Master, action: Callable[[], None]) -> float:
     return missed / max(1, done + missed)
 
 
-def flood(channel: str, seconds: float) -> None:
-    """FLOOD_FRAMES round robin at FLOOD_RATE, paced in 5 ms slices (test_faults_flood's sender)."""
+def flood(channel: str, frames: tuple[can.Message, ...] = FLOOD_FRAMES, seconds: float = 1.0,
+          rate: int = FLOOD_RATE) -> float:
+    """``frames`` round robin at ``rate`` for ``seconds``, paced in 5 ms slices (test_faults_flood
+    sends the same); the seconds it took."""
     rogue = can.Bus(interface='virtual', channel=channel)
-    start, per_slice = time.monotonic(), int(FLOOD_RATE * 0.005)
+    start, per_slice = time.monotonic(), int(rate * 0.005)
     try:
         for i in range(int(seconds / 0.005)):
             for k in range(per_slice):
-                rogue.send(FLOOD_FRAMES[(i * per_slice + k) % len(FLOOD_FRAMES)])
+                rogue.send(frames[(i * per_slice + k) % len(frames)])
             delay = start + (i + 1) * 0.005 - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
     finally:
         rogue.shutdown()
+    return time.monotonic() - start
 
 
 def run_case(case: str, seconds: float, work: Path) -> dict[str, float]:
@@ -108,7 +112,7 @@ def run_case(case: str, seconds: float, work: Path) -> dict[str, float]:
         if case == 'flood':
             with Floor(period, 2 * seconds, work) as floor:
                 baseline = skip_share(master, lambda: time.sleep(seconds))
-                figure = skip_share(master, lambda: flood(config.bus.channel, seconds))
+                figure = skip_share(master, lambda: flood(config.bus.channel, seconds=seconds))
             return {'figure': figure, 'baseline': baseline, 'floor': floor.result['skip_share']}
         with Floor(period, 2 * seconds, work) as floor:  # lost
             baseline = skip_share(master, lambda: time.sleep(seconds))
@@ -136,6 +140,7 @@ def _ratio(figure: float, floor: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
+    logging.disable(logging.WARNING)  # the master's own reports of the faults the cases inject
     parser = argparse.ArgumentParser(prog='python -m bench cycle', description=__doc__.split('\n\n')[0])
     parser.add_argument('--cases', nargs='+', choices=CASES, default=list(CASES))
     parser.add_argument('--seconds', type=float, default=3.0, help='measurement window per case (default 3)')
@@ -144,7 +149,7 @@ def main(argv: list[str] | None = None) -> None:
     print('share of set-points / grid points; baseline = the same bus without the load, just before; '
           "floor = a bare sleep loop on the grid in another process meanwhile (the machine's); "
           f'median of {options.repeat}')
-    print(f'| case | figure | value | baseline | floor | value / floor |\n|---|---|---|---|---|---|')
+    print('| case | figure | value | baseline | floor | value / floor |\n|---|---|---|---|---|---|')
     with tempfile.TemporaryDirectory(prefix='bench-cycle-') as tmp:
         for case in options.cases:
             runs = [run_case(case, options.seconds, Path(tmp)) for _ in range(options.repeat)]

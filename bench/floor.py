@@ -20,28 +20,35 @@ from typing import Any
 REPO = Path(__file__).resolve().parent.parent
 
 
+def _pct(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] if ordered else float('nan')
+
+
 def sleep_loop(period: float, seconds: float, thresholds: tuple[float, ...] = ()) -> dict[str, Any]:
-    """Figures of a sleep loop on the ``period`` grid for ``seconds``."""
+    """Figures of a sleep loop on the ``period`` grid for ``seconds``: wake-up lateness, skipped
+    grid points, the interval p99 between wake-ups (as a SYNC interval, skips included)."""
     deadline = time.perf_counter() + period
     end = deadline + seconds
     skipped = cycles = 0
     late: list[float] = []
+    wakes: list[float] = []
     while deadline < end:
         delay = deadline - time.perf_counter()
         if delay > 0:
             time.sleep(delay)
         woke = time.perf_counter()
         late.append(woke - deadline)
+        wakes.append(woke)
         cycles += 1
         deadline += period
         while deadline - woke < period / 2:
             deadline += period
             skipped += 1
-    ordered = sorted(late)
+    intervals = [b - a for a, b in zip(wakes, wakes[1:])]
     return {'cycles': cycles, 'skipped': skipped, 'skip_share': skipped / max(1, cycles + skipped),
-            'late_p50': ordered[len(ordered) // 2] if ordered else 0.0,
-            'late_p99': ordered[int(0.99 * (len(ordered) - 1))] if ordered else 0.0,
-            'late_max': ordered[-1] if ordered else 0.0,
+            'late_p50': _pct(late, 0.5), 'late_p99': _pct(late, 0.99), 'late_max': max(late, default=float('nan')),
+            'interval_p99': _pct(intervals, 0.99),
             'late_share': {str(t): sum(1 for x in late if x > t) / max(1, len(late)) for t in thresholds}}
 
 

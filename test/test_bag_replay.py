@@ -8,6 +8,7 @@ import can
 import numpy as np
 import pytest
 
+from bench.reactions import recorded_cycle as recorded_frames
 from bustools import unique_channel
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
@@ -18,25 +19,6 @@ from timingtools import BUSY_SLACK
 # machine; a busy one adds stalls of a few ms to 0.4 s) are measured by `python -m bench
 # reactions --cases replay` beside the machine's floor.
 P50_BOUND = 0.002  # s
-
-
-def recorded_frames() -> list[can.Message]:
-    """A 4 ms SYNC cycle: SYNC and two RPDOs from the master, TPDOs back from nodes 2 and 3
-    (a burst right after SYNC), a heartbeat of node 3 every 100 ms; 0.8 s in all."""
-    frames = []
-    t0 = 1_700_000_000.0
-
-    def frame(t: float, cob_id: int, data: bytes, is_rx: bool) -> can.Message:
-        return can.Message(timestamp=t, arbitration_id=cob_id, is_extended_id=False, data=data, is_rx=is_rx)
-    for cycle in range(200):
-        t = t0 + cycle * 0.004
-        frames.append(frame(t, 0x080, b'', False))
-        frames += [frame(t + 0.0002 + 0.0001 * i, 0x180 + n, cycle.to_bytes(2, 'little') + bytes(6), True)
-                   for i, n in enumerate((2, 3))]
-        frames += [frame(t + 0.0031, 0x200 + n, bytes(5), False) for n in (2, 3)]
-        if cycle % 25 == 0:
-            frames.append(frame(t + 0.0035, 0x703, b'\x05', True))
-    return frames
 
 
 @pytest.fixture(scope='module')

@@ -14,31 +14,12 @@ import time
 
 import can
 
+from bench.cycle import FLOOD_RATE as RATE, flood
 from bustools import config_from, demo_data, eventually, running
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.flood import EMCY_BURST, EMCY_RATE
 from faulttools import Events, moving, stream_ramp
 from timingtools import CycleWatch
-
-RATE = 8000  # frames/s: an 8-byte frame is about 125 bits at 1 Mbit/s
-SECONDS = 1.0
-
-
-def flood(channel: str, frames: list[can.Message]) -> float:
-    """Send ``frames`` round robin at RATE for SECONDS (paced in 5 ms slices); the seconds it took."""
-    rogue = can.Bus(interface='virtual', channel=channel)
-    start = time.monotonic()
-    try:
-        per_slice = int(RATE * 0.005)
-        for i in range(int(SECONDS / 0.005)):
-            for k in range(per_slice):
-                rogue.send(frames[(i * per_slice + k) % len(frames)])
-            delay = start + (i + 1) * 0.005 - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-    finally:
-        rogue.shutdown()
-    return time.monotonic() - start
 
 
 def test_a_flood_of_unknown_frames_and_emcys_is_bounded_and_reported() -> None:
@@ -55,8 +36,8 @@ def test_a_flood_of_unknown_frames_and_emcys_is_bounded_and_reported() -> None:
         watch = CycleWatch(master)
         rx = master.traffic.traffic().rx_frames
         start = time.monotonic()
-        took = flood(master.config.bus.channel, frames)
-        sent = int(SECONDS / 0.005) * int(RATE * 0.005)
+        took = flood(master.config.bus.channel, tuple(frames), seconds=1.0)
+        sent = int(1.0 / 0.005) * int(RATE * 0.005)
 
         # every frame arrived and was counted; the unknown ones are reported
         eventually(lambda: master.unknown_frames.by_id.get(0x7F0) == sent // 2, 3.0, 'unknown frames counted')
