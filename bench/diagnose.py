@@ -177,11 +177,12 @@ def measure(path: Path, repeat: int) -> tuple[int, float, float, float, float, f
     import + naive (the "only" runs on frames read into memory before)."""
     recording = open_recording(path)
     frames = list(recording.frames())
+    raw = list(recording.raw_frames())
     diagnose(recording)  # warm the caches (the standard object dictionary) once
     NaiveDiagnosis().run(frames)
-    alone = best_rate(lambda: diagnose(recording, frames=frames).frames, repeat)
+    alone = best_rate(lambda: diagnose(recording, frames=raw).frames, repeat)
     naive_alone = best_rate(lambda: NaiveDiagnosis().run(frames), repeat)
-    read = best_rate(lambda: sum(1 for _ in open_recording(path).frames()), repeat)
+    read = best_rate(lambda: sum(1 for _ in open_recording(path).raw_frames()), repeat)
     ours = best_rate(lambda: diagnose(open_recording(path)).frames, repeat)
     naive = best_rate(lambda: NaiveDiagnosis().run(open_recording(path).frames()), repeat)
     return len(frames), read, alone, naive_alone, ours, naive

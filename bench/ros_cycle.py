@@ -9,7 +9,7 @@ with the same PDO maps, is what the canopen and rclpy documentation lead to: can
 with ``PdoVariable.raw``, and an rclpy timer at the SYNC period that writes the set-points
 (the same motion, computed in place: it has no trajectory handling to pay for) and
 publishes the joint states. The rt variant is the bridge with ``master.realtime_priority``
-(SCHED_FIFO for its cycle thread), as the README tells users on a robot.
+(SCHED_FIFO for its cycle thread), as docs/hardware.md tells users on a robot.
 The core variant (bench/ros_cycle_core.py), also in the same
 run, is the bridge's core alone in the bridge process, without rclpy: Master and
 TrajectoryExecutor streaming the same motion and reading the joint feedback each cycle,

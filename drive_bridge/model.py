@@ -119,13 +119,16 @@ class AxisScaling:
 
 @dataclass(frozen=True)
 class AxisLimits:
-    """Joint limits in SI; None = not limited by the bridge."""
+    """Joint limits in SI; None = not limited by the bridge. ``todo``: the places of scaling or
+    limit keys the configuration marks TODO (a starter config of ``drive-bridge scan``): until
+    they are set the joint reports its state but takes no command and no trajectory."""
 
     min_position: float | None = None
     max_position: float | None = None
     max_velocity: float | None = None
     max_acceleration: float | None = None
     max_effort: float | None = None
+    todo: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,9 @@
 """Helpers for tests that use rclpy: a private context spun in a background thread."""
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -67,3 +70,15 @@ def ros_harness() -> Iterator[RosHarness]:
         yield harness
     finally:
         harness.shutdown()
+
+
+def interrupt(proc: subprocess.Popen, timeout: float = 20.0) -> str:
+    """Ctrl-C to a process started with ``start_new_session`` (its whole group), SIGKILL if it
+    has not ended within ``timeout``; returns what it printed."""
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGINT)
+    try:
+        return proc.communicate(timeout=timeout)[0] or ''
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return proc.communicate()[0] or ''

@@ -5,7 +5,7 @@ against a simulated drive built from the same file, enables, follows a JointTraj
 ``GOAL_TOLERANCE``, and a FollowJointTrajectory to SUCCESSFUL.
 
 The table below says per file what the generic family maps, what it polls by SDO and which mode
-the drive's 0x6502 gives (README "Any CiA 402 drive" shows the same table); each run checks it.
+the drive's 0x6502 gives (docs/families.md "Any CiA 402 drive" shows the same table); each run checks it.
 One BusNode per file, 0.5 s trajectories, one ROS context for the module.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ from collections.abc import Iterator
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
-from drive_bridge_interfaces.action import FollowJointTrajectory
+from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState

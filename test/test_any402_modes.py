@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
-from drive_bridge_interfaces.action import FollowJointTrajectory
+from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String

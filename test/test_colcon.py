@@ -1,4 +1,4 @@
-"""The repository builds in a colcon workspace with the README's exact command.
+"""The repository builds in a colcon workspace with the exact command of docs/hardware.md.
 
 The virtualenv stands in for ``source /opt/ros/jazzy/setup.bash``: it holds the same
 ROS packages (from PyPI), and AMENT_PREFIX_PATH / CMAKE_PREFIX_PATH point at it.
@@ -23,10 +23,10 @@ VENV = Path(sys.prefix)
 
 
 def readme_colcon_command() -> str:
-    """The ``colcon build`` line of the README's workspace section."""
-    section = REPO.joinpath('README.md').read_text().split('## Build in a colcon workspace', 1)[1]
+    """The ``colcon build`` line of the workspace section of docs/hardware.md."""
+    section = REPO.joinpath('docs', 'hardware.md').read_text().split('## Build in a colcon workspace', 1)[1]
     match = re.search(r'^(colcon build .*)$', section, re.MULTILINE)
-    assert match, 'README has no colcon build command in its workspace section'
+    assert match, 'docs/hardware.md has no colcon build command in its workspace section'
     return match.group(1)
 
 
@@ -73,6 +73,12 @@ def test_both_packages_install_where_ros_tools_look(workspace: Path) -> None:
     assert (share / 'ament_index' / 'resource_index' / 'packages' / 'drive_bridge').is_file()
     assert (share / 'drive_bridge' / 'package.xml').is_file()
     assert (share / 'drive_bridge' / 'config' / 'demo.yaml').is_file()
+    for name in ('launch/bridge.launch.py', 'launch/two_buses.launch.py', 'config/bridge_params.yaml',
+                 'examples/moveit/moveit_controllers.yaml', 'examples/ros2_control/controllers.yaml',
+                 'examples/ros2_control/ros2_control.urdf', 'examples/ros2_control/bridge_params.yaml'):
+        assert (share / 'drive_bridge' / name).is_file(), name
+    # tools/control_msgs stands in for ROS's control_msgs in the PyPI virtualenv only
+    assert not (install / 'control_msgs').exists()
     iface_share = install / 'drive_bridge_interfaces' / 'share'
     assert (iface_share / 'ament_index' / 'resource_index' / 'packages' / 'drive_bridge_interfaces').is_file()
     assert (iface_share / 'drive_bridge_interfaces' / 'msg' / 'CanFrame.msg').is_file()

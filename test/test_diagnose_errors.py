@@ -114,9 +114,9 @@ def test_error_frames_are_a_finding(tmp_path: Path) -> None:
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(['diagnose', str(path), '-o', str(tmp_path / 'r.html'), '--json', str(js), '--no-progress']) == 0
     data = json.loads(js.read_text())
-    assert data['recording']['error_frames'] == 2
-    [finding] = [f for f in data['findings'] if f['kind'] == 'error-frames']
-    assert finding['what'] == '2 CAN error frame(s)' and finding['time'] == 0.5
+    assert data['recording']['error_frames'] == 2 and data['recording']['extended_frames'] == 0
+    [finding] = [f for f in data['findings'] if f['kind'] == 'bus-errors']
+    assert finding['what'] == '2 CAN error frame(s): bus error' and finding['time'] == 0.5
 
 
 @pytest.mark.parametrize('key', ['/ABS/evil.eds', '../../../../../../../../ABS/evil.eds', 'a/../../evil.eds'])

@@ -11,7 +11,7 @@ import time
 
 import pytest
 from builtin_interfaces.msg import Duration
-from drive_bridge_interfaces.action import FollowJointTrajectory
+from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState

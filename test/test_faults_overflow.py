@@ -14,7 +14,7 @@ import time
 
 import can
 import pytest
-from drive_bridge_interfaces.action import FollowJointTrajectory
+from control_msgs.action import FollowJointTrajectory
 from drive_bridge_interfaces.srv import AxisCommand
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter

@@ -8,8 +8,8 @@ import time
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from drive_bridge_interfaces.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import AxisStates
 from drive_bridge_interfaces.srv import SdoRead
 from rclpy.action import ActionClient

@@ -1,8 +1,17 @@
-"""The interface package: generated types import, and each one crosses rclpy intact."""
+"""The interface packages: generated types import, each one crosses rclpy intact, and
+control_msgs' types are upstream's for Jazzy (type hashes)."""
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from types import ModuleType
+
+import control_msgs
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointComponentTolerance, JointTolerance
 from drive_bridge_interfaces.msg import AxisState, CanFrame, Emcy, SdoValue
 from drive_bridge_interfaces.srv import NmtCommand, SdoRead, SdoWrite
+from rclpy.action import ActionServer
 
 from rostools import RosHarness, wait_for
 
@@ -117,3 +126,84 @@ def test_can_frame_emcy_and_axis_state_published_and_received(ros: RosHarness) -
 
     wait_for(all_received, 10, 'all three messages')
     assert received == expected
+
+
+# RIHS01 type hashes of control_msgs on ROS 2 Jazzy, computed once from upstream's own files:
+# ros-controls/control_msgs, branch jazzy at commit f901df2662f22a39a06aa04a85a34602c47e3cc0
+# (release 5.8.0; the three files last changed in 11fdcdf, 2021), control_msgs/action/
+# FollowJointTrajectory.action, msg/JointTolerance.msg and msg/JointComponentTolerance.msg
+# built as they are with rosidl (rosidl_generator_type_description of this venv's Jazzy
+# wheels) in a scratch package. The same hashes come from any Jazzy install of control_msgs.
+UPSTREAM_COMMIT = 'f901df2662f22a39a06aa04a85a34602c47e3cc0'
+UPSTREAM_HASHES = {
+    'control_msgs/action/FollowJointTrajectory':
+        'RIHS01_738ebcb7a2d7cfa42f9f1001cc99ce3a4383d1cfe508015d9be8485e4b1c66f6',
+    'control_msgs/action/FollowJointTrajectory_Goal':
+        'RIHS01_8a9060704b269608f5a340934cc26e66869dd14bdac29e2e7fd9ec8b9882d205',
+    'control_msgs/action/FollowJointTrajectory_Result':
+        'RIHS01_8002e99ed2c14c6faa522f2a93c26d744c5982f254f9e98ff9c6f19789bdb220',
+    'control_msgs/action/FollowJointTrajectory_Feedback':
+        'RIHS01_3fd0aaecf71725121ae1ff7f01098a5e0da581e672be18a6b2c286cb43d96b49',
+    'control_msgs/action/FollowJointTrajectory_FeedbackMessage':
+        'RIHS01_80398fcb9674a79081a9906e2ccf0c804dd7cb15e22e362e606ee87186beab71',
+    'control_msgs/action/FollowJointTrajectory_SendGoal':
+        'RIHS01_b13789dddc325a7a962825c45e28c77d37237ec129dd0c34dc5994562938c57f',
+    'control_msgs/action/FollowJointTrajectory_SendGoal_Request':
+        'RIHS01_179c93691f1f6d1d115881ff88c3917b7cc6eac2ba4bf56766cc7c4389e19ef1',
+    'control_msgs/action/FollowJointTrajectory_SendGoal_Response':
+        'RIHS01_e6a48ba740ae254500129a877f0b071be8663a115da1a539b74599cc97921fbf',
+    'control_msgs/action/FollowJointTrajectory_SendGoal_Event':
+        'RIHS01_906dd566308db02673c73c654f69bdd84738589629c1bc2841ddb49059ed1c6f',
+    'control_msgs/action/FollowJointTrajectory_GetResult':
+        'RIHS01_e3ceb38e3e1867c8dc0f46014df26e90eb93422f27e9e97f936e07f94be4bc8b',
+    'control_msgs/action/FollowJointTrajectory_GetResult_Request':
+        'RIHS01_ecf7ea8463d3beec7084bca75216d0b01b87b6e1e4e09679bb26093041efcbe9',
+    'control_msgs/action/FollowJointTrajectory_GetResult_Response':
+        'RIHS01_08eefbaa146ce02ba45898d5e99160afd6c4c54a30d159aee0f2ca6035b1580f',
+    'control_msgs/action/FollowJointTrajectory_GetResult_Event':
+        'RIHS01_43161a489e52daaa5bbc2fa74f73f1804d099574fcf8f819170807d75472662a',
+    'control_msgs/msg/JointTolerance': 'RIHS01_c254f9cece0f3b733017b6990fd46d1326e25242d6b8844398c97d9a88e7d648',
+    'control_msgs/msg/JointComponentTolerance':
+        'RIHS01_739ea7566931944d33830fa10f1bf5e7a7fbdc3172bce7a7eaac642bd6e3ffa4',
+}
+
+
+def share_of(module: ModuleType) -> Path:
+    """share/<package> of the install prefix an interface package was imported from
+    (<prefix>/lib/pythonX.Y/site-packages/<package>: this venv, /opt/ros/jazzy, a workspace)."""
+    return Path(module.__file__ or '').resolve().parents[4] / 'share' / module.__name__
+
+
+def installed_hashes(kind: str, name: str) -> dict[str, str]:
+    """The type hashes rosidl wrote for an installed interface (share/<pkg>/<kind>/<name>.json)."""
+    share = share_of(control_msgs)
+    data = json.loads((share / kind / f'{name}.json').read_text())
+    return {h['type_name']: h['hash_string'] for h in data['type_hashes']}
+
+
+def test_control_msgs_types_hash_as_upstreams_jazzy(ros: RosHarness) -> None:
+    built = {**installed_hashes('action', 'FollowJointTrajectory'), **installed_hashes('msg', 'JointTolerance'),
+             **installed_hashes('msg', 'JointComponentTolerance')}
+    assert {k: v for k, v in built.items() if k.startswith('control_msgs/')} == UPSTREAM_HASHES
+    # the hashes the middleware announces for the types rclpy uses: a topic of each message, and
+    # the feedback topic of an action server (what a MoveIt client matches against)
+    node = ros.node('type_hashes')
+    for msg_type, topic in ((JointTolerance, 'tolerance'), (JointComponentTolerance, 'component_tolerance')):
+        node.create_publisher(msg_type, topic, 1)
+    ActionServer(node, FollowJointTrajectory, 'follow_joint_trajectory', lambda goal: None)
+    announced = {
+        'control_msgs/msg/JointTolerance': 'tolerance',
+        'control_msgs/msg/JointComponentTolerance': 'component_tolerance',
+        'control_msgs/action/FollowJointTrajectory_FeedbackMessage': 'follow_joint_trajectory/_action/feedback',
+    }
+    for type_name, topic in announced.items():
+        infos = wait_for(lambda t=topic: node.get_publishers_info_by_topic(t), 5, f'publisher of {topic}')
+        assert (infos[0].topic_type, str(infos[0].topic_type_hash)) == (type_name, UPSTREAM_HASHES[type_name])
+
+
+def test_the_bridge_defines_no_trajectory_action_of_its_own() -> None:
+    """MoveIt speaks control_msgs' type only: a look-alike of ours would never connect."""
+    import drive_bridge_interfaces
+    share = share_of(drive_bridge_interfaces)
+    assert not list(share.glob('action/*.action')), 'drive_bridge_interfaces ships an action again'
+    assert not hasattr(drive_bridge_interfaces.msg, 'JointTolerance')

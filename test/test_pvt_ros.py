@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
-from drive_bridge_interfaces.action import FollowJointTrajectory
+from control_msgs.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import Emcy
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter

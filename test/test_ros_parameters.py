@@ -30,7 +30,7 @@ from drive_bridge.ros.parameters import RUN_TIME, START_TIME
 from rostools import RosHarness, ros_harness, wait_for
 from timingtools import CycleWatch, stamped_count
 
-README = Path(__file__).resolve().parent.parent / 'README.md'
+INTERFACES_DOC = Path(__file__).resolve().parent.parent / 'docs' / 'interfaces.md'
 
 
 def demo_yaml() -> str:
@@ -92,8 +92,8 @@ def running() -> Iterator[tuple[RosHarness, BusNode, ParameterClient]]:
             node.close()
 
 
-def test_the_readme_lists_every_parameter_with_its_class() -> None:
-    text = README.read_text(encoding='utf-8').split('### Parameters\n', 1)[1].split('\n### ', 1)[0]
+def test_the_interfaces_doc_lists_every_parameter_with_its_class() -> None:
+    text = INTERFACES_DOC.read_text(encoding='utf-8').split('\n## Parameters\n', 1)[1].split('\n## ', 1)[0]
     rows = dict(re.findall(r'^\| `(\w+)` \| (start|run) time \|', text, re.M))
     assert rows == {**{name: 'start' for name in START_TIME}, **{name: 'run' for name in RUN_TIME}}
 

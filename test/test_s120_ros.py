@@ -17,8 +17,9 @@ from typing import Any
 
 import pytest
 import yaml
-from drive_bridge_interfaces.action import FollowJointTrajectory
-from drive_bridge_interfaces.msg import AxisState, JointTolerance
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointTolerance
+from drive_bridge_interfaces.msg import AxisState
 from drive_bridge_interfaces.srv import ParamRead, SetMode
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from drive_bridge_interfaces.action import FollowJointTrajectory
-from drive_bridge_interfaces.msg import AxisState, JointTolerance
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointTolerance
+from drive_bridge_interfaces.msg import AxisState
 from drive_bridge_interfaces.srv import ParamRead, ParamWrite, SetMode
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -12,7 +13,8 @@ import pytest
 import yaml
 from drive_bridge_interfaces.msg import CanFrame
 
-from rostools import RosHarness, wait_for
+import ros2cli
+from rostools import RosHarness, interrupt, wait_for
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -58,10 +60,16 @@ def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, signum: int, st
             os.killpg(proc.pid, signal.SIGKILL)
 
 
+def readme_section(heading: str) -> str:
+    return (REPO / 'README.md').read_text().split(f'\n## {heading}\n', 1)[1].split('\n## ', 1)[0]
+
+
+def code_blocks(section: str, language: str) -> list[str]:
+    return re.findall(rf'```{language}\n(.*?)```', section, re.S)
+
+
 def readme_python_example() -> str:
-    text = (REPO / 'README.md').read_text()
-    start = text.index('```python\n', text.index('## The two commands')) + len('```python\n')
-    return text[start:text.index('```', start)]
+    return code_blocks(readme_section('The demo'), 'python')[0]
 
 
 def _run_readme_example(ros: RosHarness, attempt: int, config: Path) -> tuple[bool, str]:
@@ -107,8 +115,8 @@ def _run_readme_example(ros: RosHarness, attempt: int, config: Path) -> tuple[bo
 def test_readme_trajectory_example_moves_the_demo(ros: RosHarness, tmp_path: Path) -> None:
     # The shipped demo with heartbeat timeouts of 1 s instead of 300 ms (multiplier 10): in CI the
     # demo's process (bridge and simulated drives in one Python process) stalled 0.36-0.4 s as the
-    # example's process joined, and the drives faulted by their heartbeat consumer (README,
-    # Development; cause not found). Everything else is the demo as `make demo` runs it.
+    # example's process joined, and the drives faulted by their heartbeat consumer
+    # (docs/development.md, Tests; cause not found). Everything else is the demo as `make demo` runs it.
     data = yaml.safe_load((REPO / 'config' / 'demo.yaml').read_text())
     data.setdefault('options', {})['heartbeat_multiplier'] = 10
     config = tmp_path / 'demo.yaml'
@@ -122,3 +130,47 @@ def test_readme_trajectory_example_moves_the_demo(ros: RosHarness, tmp_path: Pat
         print('first attempt: the demo stalled and its drives faulted by heartbeat; again')
         arrived, out = _run_readme_example(ros, 1, config)
     assert arrived, f'the README example did not move the demo; the bridge printed: {out[-2000:]}'
+
+
+def test_readme_your_drive_in_ten_lines(tmp_path: Path) -> None:
+    """The README's "your drive in ten lines" as a new user runs it: its YAML as my_bus.yaml,
+    its two commands (drive-bridge sim, then the bridge, over the local transport), its Python
+    client (enable, a trajectory to 1 rad, an SDO read), then its ros2 lines."""
+    section = readme_section('Your drive in ten lines')
+    # with heartbeat timeouts of 1 s instead of 300 ms (multiplier 10), as the demo test above: on a
+    # loaded machine (load 10 on 2 cores) the drive faulted by its heartbeat consumer (EMCY 0x8130)
+    data = yaml.safe_load(code_blocks(section, 'yaml')[0])
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
+    (tmp_path / 'my_bus.yaml').write_text(yaml.safe_dump(data, sort_keys=False))
+    commands = [line.split('#')[0].strip().rstrip('&').strip() for line in code_blocks(section, 'bash')[0].splitlines()]
+    assert [c.split()[0] for c in commands] == ['.venv/bin/drive-bridge', '.venv/bin/bridge']
+    env = dict(os.environ, DRIVE_BRIDGE_CAN_DIR=str(tmp_path))  # the local bus of this test only
+    procs = []
+    try:
+        for command in commands:
+            words = command.split()
+            words[0] = str(Path(sys.prefix) / 'bin' / Path(words[0]).name)
+            procs.append(subprocess.Popen(words, cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                                          stderr=subprocess.STDOUT, text=True, start_new_session=True))
+        session = ros2cli.Session()
+        try:
+            # the user starts the client once the bridge said "node 2 (my_drive) booted and operational"
+            wait_for(lambda: session.echo('/drive_bridge/axis_states', 1)[0].axes[0].nmt_state == 'OPERATIONAL',
+                     60, 'node 2 operational')
+            client = subprocess.run([sys.executable, '-c', code_blocks(section, 'python')[0]], cwd=tmp_path,
+                                    env=env, capture_output=True, text=True, timeout=120)
+            assert client.returncode == 0, client.stderr
+            printed = client.stdout.splitlines()
+            assert printed[0] == 'enable: done for my_joint', printed
+            position = float(printed[1].split(':')[1].strip(' }'))
+            assert abs(position - 1.0) < 0.01, printed
+            assert printed[2].startswith('node 2 0x6064:00 = 1043'), printed  # 1 rad x 10 x 65536 / 2 pi = 104,304
+            for line in code_blocks(section, 'bash')[1].splitlines():
+                if line.startswith('ros2 '):
+                    answer = ros2cli.run(ros2cli.split_command(line), session)
+                    assert getattr(answer, 'success', True), f'{line}: {answer}'
+        finally:
+            session.close()
+    finally:
+        for proc in reversed(procs):  # the bridge first: it stops the axis while the drive still runs
+            interrupt(proc)

@@ -29,7 +29,7 @@ def run(*command: str) -> None:
 
 
 def test_ruff() -> None:
-    run('ruff', 'check', '--no-cache', '--output-format', 'concise', 'drive_bridge', 'test', 'bench', 'tools')
+    run('ruff', 'check', '--no-cache', '--output-format', 'concise', 'drive_bridge', 'test', 'bench', 'tools', 'launch')
 
 
 def test_mypy() -> None:

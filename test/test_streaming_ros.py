@@ -1,19 +1,31 @@
-"""Trajectory streaming through ROS: the FollowJointTrajectory action, interpolated
-position (linear), replacement, stopping with deceleration."""
+"""Trajectory streaming through ROS: control_msgs' FollowJointTrajectory action (as MoveIt
+sends it, and what the bridge refuses of it), interpolated position (linear), replacement,
+stopping with deceleration."""
 from __future__ import annotations
 
+import math
+import re
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
-from drive_bridge_interfaces.action import FollowJointTrajectory
-from drive_bridge_interfaces.msg import JointTolerance
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointComponentTolerance, JointTolerance
 from drive_bridge_interfaces.srv import SetMode
+from geometry_msgs.msg import Transform
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import (
+    JointTrajectory,
+    JointTrajectoryPoint,
+    MultiDOFJointTrajectory,
+    MultiDOFJointTrajectoryPoint,
+)
 
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
@@ -179,3 +191,103 @@ def test_diagnostics_report_sync_timing_and_setpoint_lead(ros, bridge) -> None:
     for key in ('sync_interval_p99', 'sync_jitter_max', 'setpoint_lead_max', 'sync_skipped', 'bus_load'):
         assert key in values
     assert values['late_setpoints'] == '0'  # no master.sync_window: no set-point is ever too late
+
+
+MOVEIT_CONTROLLERS = Path(__file__).resolve().parents[1] / 'examples' / 'moveit' / 'moveit_controllers.yaml'
+
+
+def moveit_goal(joints: list[str], start: dict[str, float], step: float) -> FollowJointTrajectory.Goal:
+    """The goal MoveIt's FollowJointTrajectory controller handle sends: a time-parameterised
+    trajectory of every controller joint from the present state (point 0 at t = 0, positions,
+    velocities and accelerations), header stamp 0 (start now), an empty multi-DOF trajectory,
+    no tolerances (its goal template)."""
+    points = []
+    for i in range(11):  # a smooth rest-to-rest move over 1 s
+        t = i / 10
+        s, ds, dds = (10 * t**3 - 15 * t**4 + 6 * t**5, 30 * t**2 - 60 * t**3 + 30 * t**4,
+                      60 * t - 180 * t**2 + 120 * t**3)
+        points.append(JointTrajectoryPoint(positions=[start[j] + step * s for j in joints],
+                                           velocities=[step * ds for _ in joints],
+                                           accelerations=[step * dds for _ in joints],
+                                           time_from_start=Duration(sec=int(t), nanosec=round((t % 1) * 1e9))))
+    return FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=joints, points=points))
+
+
+def test_a_moveit_client_of_control_msgs_type_executes_on_the_demo(ros, bridge) -> None:
+    config = yaml.safe_load(MOVEIT_CONTROLLERS.read_text())
+    (name,) = config['moveit_simple_controller_manager']['controller_names']
+    controller = config['moveit_simple_controller_manager'][name]
+    assert controller['type'] == 'FollowJointTrajectory'
+    joints = controller['joints']
+    assert sorted(joints) == sorted(bridge.master.axes)  # the controller is the whole bus
+    # MoveIt's action name: <controller name>/<action_ns>, in move_group's (root) namespace
+    client = ActionClient(ros.node('move_group'), FollowJointTrajectory, f'/{name}/{controller["action_ns"]}')
+    assert client.wait_for_server(timeout_sec=10)
+    start = {j: bridge.master.axes[j].snapshot().position for j in joints}
+    step = 0.05
+    goal = Goal(ros, client, moveit_goal(joints, start, step).trajectory)
+    result = goal.result()
+    assert (result.error_code, result.error_string) == (Result.SUCCESSFUL, '')
+    assert goal.feedback and list(goal.feedback[-1].joint_names) == joints
+    assert list(goal.feedback[-1].multi_dof_joint_names) == []
+    for joint in joints:
+        assert bridge.master.axes[joint].snapshot().position == pytest.approx(start[joint] + step, abs=3e-3), joint
+
+
+def test_goals_the_bridge_cannot_execute_are_refused_with_the_reason(ros, bridge, action) -> None:
+    here = bridge.master.axes['base_joint'].snapshot().position
+    moving = JointTrajectory(joint_names=['base_joint'], points=[point(0.5, [here + 0.01])])
+    multi = FollowJointTrajectory.Goal(trajectory=moving)
+    multi.multi_dof_trajectory = MultiDOFJointTrajectory(
+        joint_names=['mobile_base'], points=[MultiDOFJointTrajectoryPoint(transforms=[Transform()])])
+    cases = [
+        (multi, Result.INVALID_GOAL, "multi_dof_trajectory has 1 joint(s) ('mobile_base') and 1 point(s): this "
+                                     'bridge drives single-DOF joints only'),
+        (FollowJointTrajectory.Goal(trajectory=moving, component_path_tolerance=[
+            JointComponentTolerance(joint_name='mobile_base', component=JointComponentTolerance.TRANSLATION,
+                                    position=0.01)]),
+         Result.INVALID_GOAL, "component_path_tolerance bounds joint(s) 'mobile_base': component tolerances are "
+                              'for multi-DOF joints'),
+        (FollowJointTrajectory.Goal(trajectory=moving, goal_tolerance=[
+            JointTolerance(name='base_joint', acceleration=0.1)]),
+         Result.INVALID_GOAL, 'goal_tolerance: acceleration tolerance 0.1 of base_joint cannot be checked'),
+        (FollowJointTrajectory.Goal(trajectory=moving, path_tolerance=[
+            JointTolerance(name='base_joint', position=math.nan)]),
+         Result.INVALID_GOAL, 'path_tolerance: position tolerance of base_joint is NaN'),
+        (FollowJointTrajectory.Goal(trajectory=moving, path_tolerance=[JointTolerance(name='nope', position=0.1)]),
+         Result.INVALID_JOINTS, "path_tolerance names joint(s) 'nope', not joints of this bus"),
+    ]
+    for request, code, reason in cases:
+        sent = action.send_goal_async(request)
+        handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal response')
+        future = handle.get_result_async()
+        result = wait_for(lambda: future.result() if future.done() else None, 10, 'result').result
+        assert result.error_code == code and reason in result.error_string, (reason, result.error_string)
+    assert not bridge.trajectories.active(), 'nothing of a refused goal runs'
+    # a multi-DOF trajectory that is empty and component tolerances that check nothing (0 = the
+    # default, -1 = none) are what MoveIt sends for a robot without multi-DOF joints: accepted
+    accepted = Goal(ros, action, moving, component_goal_tolerance=[
+        JointComponentTolerance(joint_name='base_joint', component=JointComponentTolerance.ROTATION, position=-1.0)])
+    assert accepted.result().error_code == Result.SUCCESSFUL
+
+
+def test_the_documented_action_example_runs_against_the_demo(ros) -> None:
+    """docs/interfaces.md's Python call example, as a client process of its own. The demo with
+    1 s heartbeat timeouts (multiplier 10), as test_setup's README example: a process starting
+    beside it on a busy machine stalled the bridge's process 0.5 s and faulted its drives."""
+    data = demo_data()
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
+    bridge = BusNode(context=ros.context, parameter_overrides=[
+        Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)), Parameter('auto_enable', value=True)])
+    ros.add(bridge)
+    try:
+        wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in bridge.master.axes.values()), 15, 'enabled')
+        text = (Path(__file__).resolve().parents[1] / 'docs' / 'interfaces.md').read_text()
+        section = text.split('## The trajectory action', 1)[1].split('\n## ', 1)[0]
+        (example,) = re.findall(r'```python\n(.*?)```', section, re.S)
+        run = subprocess.run([sys.executable, '-c', example], capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0, run.stderr[-2000:]
+        assert run.stdout.strip().splitlines()[-1] == '0', run.stdout
+        assert bridge.master.axes['base_joint'].snapshot().position == pytest.approx(0.0, abs=0.01)
+    finally:
+        bridge.close()

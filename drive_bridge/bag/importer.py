@@ -14,7 +14,7 @@ from drive_bridge.bag.source import Recording, open_recording
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.config import load_bus_config
 
-TEXT_FORMATS = ('trc', 'asc', 'candump', 'csv', 'ixxat-minimon')
+TEXT_FORMATS = ('trc', 'asc', 'candump', 'candump-screen', 'csv', 'ixxat-minimon')
 
 
 @dataclass(frozen=True)
@@ -49,9 +49,9 @@ def node_of(cob_id: int) -> int | None:
 
 
 def import_trace(source: Path, out: Path, config_path: Path | None = None, progress: bool = True,
-                 strict: bool = True) -> ImportReport:
+                 strict: bool = True, fmt: str | None = None) -> ImportReport:
     """Write ``source`` as a bag at ``out``; nothing is left at ``out`` if the source is bad."""
-    recording = open_recording(Path(source), strict)
+    recording = open_recording(Path(source), strict, fmt)
     config_yaml, files = recording.config_yaml, dict(recording.files)
     node_ids: set[int] = set()
     if config_path is not None:

@@ -22,7 +22,8 @@ def record_passive(bus: can.BusABC, recorder: Recorder, stop: threading.Event, *
                    name: str = '') -> RecorderStats:
     """Queue every received frame until ``stop`` is set (or ``duration`` s passed), then close the bag.
     Frames the interface received before the stop (waiting in its queue) are still recorded,
-    for up to DRAIN_SECONDS on a bus that keeps sending. A failing interface (unplugged adapter, interface down) closes the bag and raises BagError
+    for up to DRAIN_SECONDS on a bus that keeps sending.
+    A failing interface (unplugged adapter, interface down) closes the bag and raises BagError
     naming it (``name``, e.g. 'socketcan:can0'; default the bus's channel_info)."""
     deadline = time.monotonic() + duration if duration > 0 else float('inf')
     next_report = time.monotonic() + report_period

@@ -3,6 +3,10 @@ from __future__ import annotations
 
 from enum import Enum
 
+# NMT command specifiers (CiA 301 §7.2.8.3.1) and their names
+NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
+                0x81: 'reset node', 0x82: 'reset communication'}
+
 
 class NmtState(str, Enum):
     """A node's NMT state; a ``str`` enum, so it compares equal to its printed name."""

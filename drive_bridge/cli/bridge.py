@@ -23,7 +23,8 @@ def bridge_main(argv: list[str] | None = None, managed: bool = False) -> None:
                         help='bus configuration YAML (default: the shipped demo on a virtual bus)')
     options = parser.parse_args(own)
     config = options.config
-    if not config and not any(a.startswith(('config:=', 'config_yaml:=')) for a in ros_args):
+    if not config and not any(a.startswith(('config:=', 'config_yaml:=')) for a in ros_args) \
+            and not params_files_set_config(ros_args):
         config = str(shipped_config('demo.yaml'))
         ros_args = [*DEMO_ROS_ARGS, *ros_args]
         # The demo must keep DDS on loopback unless the user chose otherwise.
@@ -37,6 +38,29 @@ def bridge_main(argv: list[str] | None = None, managed: bool = False) -> None:
     except KeyboardInterrupt as exc:  # before the spin (importing, booting the bus)
         code = exit_code(exc)
     raise SystemExit(code)
+
+
+def params_files_set_config(ros_args: list[str]) -> bool:
+    """Whether a ``--params-file`` of ``ros_args`` sets config or config_yaml (as launch files do):
+    then the node is not the demo, and no demo parameter may override the file's."""
+    import yaml
+    files = [ros_args[i + 1] for i, a in enumerate(ros_args[:-1]) if a == '--params-file']
+
+    def sets_config(data: object) -> bool:
+        if not isinstance(data, dict):
+            return False
+        params = data.get('ros__parameters')
+        if isinstance(params, dict) and (params.get('config') or params.get('config_yaml')):
+            return True
+        return any(sets_config(v) for k, v in data.items() if k != 'ros__parameters')
+    for name in files:
+        try:
+            with open(name, encoding='utf-8') as stream:
+                if sets_config(yaml.safe_load(stream)):
+                    return True
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            continue  # rcl reports an unreadable file itself
+    return False
 
 
 def bridge_managed_main(argv: list[str] | None = None) -> None:

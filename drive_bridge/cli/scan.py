@@ -2,11 +2,14 @@
 from __future__ import annotations
 
 import argparse
+import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import canopen
 
-from drive_bridge.bag.scan import ScanError, parse_node_ids, scan
+from drive_bridge.bag.edsmatch import EdsFile, eds_paths, matching, read_eds_files
+from drive_bridge.bag.scan import FoundNode, ScanError, parse_node_ids, scan
 from drive_bridge.bag.starter import starter_config
 
 
@@ -17,6 +20,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--bitrate', type=int, help='bit/s (default: the interface\'s)')
     parser.add_argument('--nodes', default='1-127', help='node ids to ask, e.g. 1-127 or 2,3,10-12')
     parser.add_argument('--timeout', type=float, default=0.2, help='s to wait for each SDO answer (default 0.2)')
+    parser.add_argument('--eds', type=Path, action='append', default=[], metavar='PATH',
+                        help="an EDS/DCF file or a directory of them (repeatable): the starter config's dcf "
+                             "names the one whose identity is the node's")
     parser.add_argument('-o', '--output', type=Path, help='write a starter bus config here')
 
 
@@ -26,6 +32,9 @@ def run(args: argparse.Namespace) -> int:
         raise ScanError(f'--timeout {args.timeout}: must be > 0')
     if args.output is not None and args.output.exists():
         raise ScanError(f'{args.output}: exists already; not overwritten')
+    eds_files, notes = read_eds_files(eds_paths(args.eds))
+    for note in notes:
+        print(note)
     network = canopen.Network()
     kwargs = {'bitrate': args.bitrate} if args.bitrate else {}
     try:
@@ -37,7 +46,23 @@ def run(args: argparse.Namespace) -> int:
     finally:
         network.disconnect()
     print(f'{len(found)} node(s) answered of {len(ids)} asked')
+    dcf = {node.node_id: _dcf_texts(node, eds_files, args.output) for node in found} if eds_files else {}
     if args.output is not None:
-        args.output.write_text(starter_config(found, args.interface, args.channel, args.bitrate), encoding='utf-8')
+        args.output.write_text(starter_config(found, args.interface, args.channel, args.bitrate, dcf),
+                               encoding='utf-8')
         print(f'starter config: {args.output}')
     return 0 if found else 1
+
+
+def _dcf_texts(node: FoundNode, files: Sequence[EdsFile], output: Path | None) -> list[str]:
+    """The EDS files of ``files`` that fit the node, as the starter config names them: relative
+    to the config's folder where given relative, else as given."""
+    texts = []
+    for match in matching(node.identity, files):
+        path = match.path
+        if not path.is_absolute() and output is not None:
+            path = Path(os.path.relpath(path.resolve(), output.resolve().parent))
+        texts.append(path.as_posix())
+    if texts:
+        print(f'node {node.node_id:3d}: EDS {texts[0]}' + (f' (also {", ".join(texts[1:])})' if texts[1:] else ''))
+    return texts

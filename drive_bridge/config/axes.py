@@ -101,10 +101,50 @@ def _modes(sec: Section, family: DriveFamily) -> dict[str, Any]:
     return modes
 
 
-def _limits(sec: Section | None) -> AxisLimits:
+def _take_todo(sec: Section | None) -> list[str]:
+    """The places of the keys ``sec`` marks TODO, taken out of it (the rest is parsed as usual)."""
     if sec is None:
-        return AxisLimits()
+        return []
+    marked = [k for k, v in sec.data.items() if v == keys.TODO]
+    for k in marked:
+        del sec.data[k]
+    return [sec.loc(k).path for k in marked]
+
+
+def _placeholder(sec: Section, key: str) -> str | None:
+    """'todo' or 'none' for ``key: TODO`` / ``key: none`` (a whole section left open or declined)."""
+    value = sec.get(key)
+    if value == keys.TODO:
+        return 'todo'
+    return 'none' if value == keys.NO_SCALING and key == 'scaling' else None
+
+
+def _scaling(issues: Issues, sec: Section, joint_type: JointType, loc: Loc, todo: list[str]) -> AxisScaling:
+    """The axis' scaling. ``scaling: none``: device units on purpose (no warning); TODO (the
+    section or any key): device units, and the place goes to ``todo``."""
+    kind = _placeholder(sec, 'scaling')
+    if kind == 'none':
+        return AxisScaling()
+    if kind == 'todo':
+        todo.append(sec.loc('scaling').path)
+        return AxisScaling()
+    scaling_section = sec.section('scaling')
+    if scaling_section is not None:
+        scaling_section.check_keys(keys.SCALING)
+    marked = _take_todo(scaling_section)
+    if marked:  # the other keys are still checked
+        if scaling_section is not None and scaling_section.data:
+            parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
+        todo.extend(marked)
+        return AxisScaling()
+    return parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
+
+
+def _limits(sec: Section | None, todo: list[str]) -> AxisLimits:
+    if sec is None:
+        return AxisLimits(todo=tuple(todo))
     sec.check_keys(keys.LIMITS)
+    todo.extend(_take_todo(sec))
     low = sec.get_number('min_position')
     high = sec.get_number('max_position')
     if low is not None and high is not None and low >= high:
@@ -113,7 +153,7 @@ def _limits(sec: Section | None) -> AxisLimits:
     return AxisLimits(min_position=low, max_position=high,
                       max_velocity=sec.get_number('max_velocity', gt=0),
                       max_acceleration=sec.get_number('max_acceleration', gt=0),
-                      max_effort=sec.get_number('max_effort', gt=0))
+                      max_effort=sec.get_number('max_effort', gt=0), todo=tuple(todo))
 
 
 def _position_loop(sec: Section | None, family: DriveFamily) -> PositionLoopConfig:
@@ -157,18 +197,24 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     slot = sec.get_int('slot', position, lo=0, hi=obj.MAX_AXES - 1)
     joint_type: JointType = sec.get_str('type', 'revolute', choices=('revolute', 'prismatic'))  # type: ignore[assignment]
     modes = _modes(sec, family)
-    scaling_section = sec.section('scaling')
+    todo: list[str] = []
     if not family.uses_axis_scaling:  # the family's driver scales from its own `drive` settings
-        if scaling_section is not None:
+        if 'scaling' in sec:
             issues.error(sec.loc('scaling'), f"family '{family.name}' scales from the axis' `drive` settings; "
                                              'remove scaling')
         scaling = AxisScaling()
     else:
-        if scaling_section is not None:
-            scaling_section.check_keys(keys.SCALING)
-        scaling = parse_scaling(issues, scaling_section, joint_type, loc, ros_defaults=False)
+        scaling = _scaling(issues, sec, joint_type, loc, todo)
+    if _placeholder(sec, 'limits') == 'todo':
+        todo.append(sec.loc('limits').path)
+        limits = AxisLimits(todo=tuple(todo))
+    else:
+        limits = _limits(sec.section('limits'), todo)
+    if todo:
+        issues.warn(loc, f'{", ".join(todo)}: TODO; the joint reports device units where its scaling is TODO, '
+                         'and takes no command and no trajectory until every TODO is set')
     axis = AxisConfig(joint=joint or f'<axis {position}>', slot=slot if slot is not None else position,
-                      joint_type=joint_type, scaling=scaling, limits=_limits(sec.section('limits')),
+                      joint_type=joint_type, scaling=scaling, limits=limits,
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
                       position_loop=_position_loop(sec.section('position_loop'), family),
                       drive=_drive_options(sec, family), where=f'{file}: {loc.path}', **modes)

@@ -56,6 +56,10 @@ PHYSICAL_SCALING = ('counts_per_revolution', 'counts_per_metre', 'gear_ratio', '
                     'velocity_scale', 'rated_torque')
 SCALING = PHYSICAL_SCALING + LINEAR_SCALING
 LIMITS = ('min_position', 'max_position', 'max_velocity', 'max_acceleration', 'max_effort')
+# a placeholder value of a starter config: the key (or whole scaling/limits section, or dcf) is
+# still to be filled; `scaling: none` declines scaling (device units) on purpose
+TODO = 'TODO'
+NO_SCALING = 'none'
 HOMING = ('method', 'speed_search', 'speed_zero', 'acceleration', 'offset')
 
 PDO_COMMON = ('enabled', 'cob_id', 'transmission', 'transmission_type', 'event_timer', 'mapping')

@@ -96,6 +96,13 @@ def _eds_path(ctx: NodeContext, node: Section, family: DriveFamily, axis_count: 
     name = node.get_str('dcf')
     if name is None:
         return None, node.loc('dcf')
+    if name == keys.TODO:
+        shipped = family.eds_for(axis_count)
+        fallback = (f"; or remove dcf to use family '{family.name}''s own EDS ({shipped.name}), if it is this device's"
+                    if shipped is not None else '')
+        ctx.issues.error(node.loc('dcf'), "TODO: give this drive's EDS or DCF (the vendor's file for its identity); "
+                                          f'`drive-bridge scan --eds DIR` names the one that matches{fallback}')
+        return None, node.loc('dcf')
     base = ctx.dcf_dir
     if 'dcf_path' in node:
         directory = node.get_str('dcf_path')

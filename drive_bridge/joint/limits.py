@@ -10,7 +10,9 @@ TOLERANCE = 1e-12
 
 def limit_problem(limits: AxisLimits, position: float | None = None, velocity: float | None = None,
                   effort: float | None = None) -> str | None:
-    """What is wrong with a command in SI (not finite, beyond a joint limit), None if nothing."""
+    """What is wrong with a command in SI (not configured, not finite, beyond a joint limit), None if nothing."""
+    if limits.todo:
+        return unset_problem(limits)
     for name, value in (('position', position), ('velocity', velocity), ('effort', effort)):
         if value is not None and not math.isfinite(value):
             return f'{name} {value} is not a finite number'
@@ -24,3 +26,11 @@ def limit_problem(limits: AxisLimits, position: float | None = None, velocity: f
     if effort is not None and limits.max_effort is not None and abs(effort) > limits.max_effort + TOLERANCE:
         return f'effort {effort:.6g} exceeds the limit {limits.max_effort:.6g}'
     return None
+
+
+def unset_problem(limits: AxisLimits) -> str:
+    """Why a joint whose configuration leaves keys TODO takes no command, naming each key."""
+    keys = ', '.join(limits.todo)
+    verb = 'is' if len(limits.todo) == 1 else 'are'
+    return (f'not configured: {keys} {verb} TODO in the bus configuration; set {"it" if verb == "is" else "them"} '
+            '(scaling: none streams device units) and restart the bridge')

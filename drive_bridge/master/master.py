@@ -2,8 +2,9 @@
 the cycle (SYNC) and the supervision (boot, retries, heartbeats).
 
 Threads: canopen's Notifier (frames in: TPDO, heartbeat, EMCY, SDO responses), the
-cycle (RPDOs then SYNC), the supervisor (heartbeat timeouts, boot scheduling) and one
-short-lived thread per node boot. Public methods are safe from any thread except the
+cycle (SYNC, then the RPDOs for the next SYNC once the TPDOs are in), the supervisor
+(heartbeat timeouts, boot scheduling) and one short-lived thread per node boot
+(docs/architecture.md, Threads). Public methods are safe from any thread except the
 Notifier (they may block on SDO).
 """
 from __future__ import annotations
@@ -20,7 +21,7 @@ import can
 import canopen
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia301.nmt import NmtState
+from drive_bridge.cia301.nmt import NMT_COMMANDS, NmtState
 from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC as UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.errors import ConfigError
 from drive_bridge.errors import DriveBridgeError
@@ -42,8 +43,6 @@ from drive_bridge.model import BusConfig
 
 log = logging.getLogger('drive_bridge.master')
 
-NMT_COMMANDS = {0x01: 'start', 0x02: 'stop', 0x80: 'enter pre-operational',
-                0x81: 'reset node', 0x82: 'reset communication'}
 SUPERVISOR_PERIOD = 0.02
 ADHOC_SDO_TIMEOUT = 0.3
 LEAVES_OPERATIONAL = frozenset({0x02, 0x80, 0x81, 0x82})  # stop, pre-operational, the resets

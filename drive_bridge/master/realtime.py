@@ -5,7 +5,7 @@ subscriber), the cycle thread that wakes for a SYNC deadline waits for a core be
 ordinary threads; a wait of half a period skips the SYNC. With SCHED_FIFO the kernel runs it
 as soon as it wakes, and a GIL switch interval of 0.5 ms (instead of 5 ms) bounds how long
 another thread of the process may keep the interpreter once the cycle thread asks for it
-(measured in README "Performance"). The CAN receive thread is left at normal priority: made
+(measured in docs/performance.md). The CAN receive thread is left at normal priority: made
 SCHED_FIFO too it cost 10 points of CPU and 0.3 ms of `/joint_states` latency, and skipped
 no fewer SYNCs. It is what ros2_control does for its control loop; it needs CAP_SYS_NICE or
 an rtprio limit (``/etc/security/limits.conf``), else the cycle runs at normal priority and

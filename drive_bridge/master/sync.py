@@ -9,7 +9,7 @@ a period) for the synchronous TPDOs the drives answer it with, so set-points are
 decided on fresh feedback; then the ``before_sync`` hooks send the RPDOs for the *next*
 SYNC, sampled at that SYNC's grid time, inside the synchronous window; then the
 ``after_sync`` hooks. Work before the SYNC frame no longer delays it (measured in
-README "Performance"). Deadlines are absolute; a missed deadline is skipped and
+docs/performance.md). Deadlines are absolute; a missed deadline is skipped and
 counted, never made up with a burst.
 
 With a synchronous window (0x1007 on the drives) a drive discards synchronous RPDOs received

@@ -1,4 +1,4 @@
-"""The ``access`` rules applied to ROS clients' requests (see README, "What ROS clients may do").
+"""The ``access`` rules applied to ROS clients' requests (docs/faults-and-security.md, "What ROS clients may do").
 
 Only the services call this: the master's own boot and configuration writes never pass here.
 A refusal is an :class:`AccessRefused` whose message starts with the service and the rule

@@ -12,7 +12,7 @@ __all__ = ['BusNode', 'StartupError']
 
 
 class BusNode(Node):
-    """Bridges the drives of one bus into ROS, active from the start (see README)."""
+    """Bridges the drives of one bus into ROS, active from the start (docs/interfaces.md)."""
 
     def __init__(self, config_path: str = '', *, node_name: str = 'drive_bridge', **kwargs) -> None:
         super().__init__(node_name, **kwargs)

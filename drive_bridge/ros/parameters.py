@@ -1,6 +1,6 @@
 """The bus node's ROS parameters: declared with descriptions, validated together.
 
-Two classes (README, "ROS parameters"): start-time parameters act only while the node starts
+Two classes (docs/interfaces.md, "Parameters"): start-time parameters act only while the node starts
 (lifecycle node: at configure) and are refused once it runs (configured), with the reason;
 run-time parameters (:data:`RUN_TIME`) are validated with the others and applied at once.
 """

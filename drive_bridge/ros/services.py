@@ -19,8 +19,9 @@ from drive_bridge_interfaces.srv import AxisCommand, NmtCommand, SdoRead, SdoWri
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
+from drive_bridge.cia301.nmt import NMT_COMMANDS
 from drive_bridge.joint import JointDriver, JointError
-from drive_bridge.master.master import NMT_COMMANDS, Master
+from drive_bridge.master.master import Master
 from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python

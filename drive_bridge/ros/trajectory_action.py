@@ -1,6 +1,7 @@
-"""The FollowJointTrajectory action (control_msgs semantics) on the bus's joints.
+"""control_msgs' FollowJointTrajectory action on the bus's joints (MoveIt's controller type).
 
-A new goal replaces the running one (which ends aborted, "replaced"); cancel stops the
+What the bridge cannot execute is refused first, with the reason (ros/goal_checks.py). A new
+goal replaces the running one (which ends aborted, "replaced"); cancel stops the
 joints with a controlled deceleration; a path tolerance violation stops and aborts; at
 the end the goal tolerance must hold within goal_time_tolerance. Feedback (desired,
 actual, error) is sent at FEEDBACK_PERIOD. The execute coroutine sleeps on rclpy futures
@@ -14,7 +15,7 @@ import time
 
 import rclpy.task
 from builtin_interfaces.msg import Duration
-from drive_bridge_interfaces.action import FollowJointTrajectory
+from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -24,6 +25,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
 from drive_bridge.ros.frames import stamp_from_seconds
+from drive_bridge.ros.goal_checks import GoalRefused, check_goal, tolerances
 from drive_bridge.ros.message_limits import MessageTooLarge, check_trajectory_size
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import TrajectoryError
@@ -31,12 +33,6 @@ from drive_bridge.streaming.trajectory import TrajectoryError
 FEEDBACK_PERIOD = 0.05
 DEFAULT_SETTLE = 0.5  # s allowed after the end for the goal tolerance when goal_time_tolerance is 0
 Result = FollowJointTrajectory.Result
-
-
-def _tolerances(entries, joints: list[str], field: str) -> dict[str, float]:
-    """Per joint tolerance on ``field``: > 0 checked, 0 (default) and < 0 not checked."""
-    values = {e.name: getattr(e, field) for e in entries}
-    return {j: values[j] for j in joints if values.get(j, 0.0) > 0}
 
 
 class TrajectoryAction:
@@ -76,6 +72,11 @@ class TrajectoryAction:
         except MessageTooLarge as exc:
             goal.abort()
             return self._result(Result.INVALID_GOAL, str(exc))
+        try:
+            check_goal(request, list(self.master.axes), Result.INVALID_GOAL, Result.INVALID_JOINTS)
+        except GoalRefused as exc:
+            goal.abort()
+            return self._result(exc.code, str(exc))
         joints = list(request.trajectory.joint_names)
         unknown = [j for j in joints if j not in self.master.axes]
         if unknown or not joints:
@@ -99,8 +100,8 @@ class TrajectoryAction:
     async def _follow(self, goal: ServerGoalHandle, handle: TrajectoryHandle,
                       joints: list[str]) -> FollowJointTrajectory.Result:
         request = goal.request
-        path = {f: _tolerances(request.path_tolerance, joints, f) for f in ('position', 'velocity')}
-        final = {f: _tolerances(request.goal_tolerance, joints, f) for f in ('position', 'velocity')}
+        path = {f: tolerances(request.path_tolerance, joints, f) for f in ('position', 'velocity')}
+        final = {f: tolerances(request.goal_tolerance, joints, f) for f in ('position', 'velocity')}
         settle = seconds(request.goal_time_tolerance) or DEFAULT_SETTLE
         last_point = request.trajectory.points[-1]
         goal_positions = dict(zip(joints, last_point.positions))

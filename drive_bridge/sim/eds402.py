@@ -6,7 +6,10 @@ none), the modes its objects allow (:func:`drive_bridge.families.generic402.mode
 A limit the file gives as 0 or not at all (a following error window, a maximum speed, torque
 or acceleration) is the drive's own setting the file leaves open: no drive moves with a zero
 limit, and vendor tools fill these in from the drive. The simulator then takes the limit as
-not limiting (the data type's maximum; 0x6065 = 0xFFFFFFFF: following control off)."""
+not limiting (the data type's maximum; 0x6065 = 0xFFFFFFFF: following control off).
+
+A device type (0x1000) the file gives no value is a CiA 402 servo drive's, 0x00020192 (profile
+402, type 2), as maxon's EPOS4 reports with an EDS that leaves it open: a drive answers it."""
 from __future__ import annotations
 
 from canopen.objectdictionary import datatypes as dt
@@ -16,6 +19,8 @@ from drive_bridge.families.generic402.modes import declared_support, has_support
 from drive_bridge.sim.drive402 import SimDrive402
 from drive_bridge.sim.store import key
 
+DEVICE_TYPE = 0x1000
+SERVO_DRIVE_402 = 0x00020192  # CiA 402: profile 402 in bits 0-15, drive type 2 (servo) in bits 16-23
 OPEN_LIMITS = (obj.FOLLOWING_ERROR_WINDOW, obj.MAX_TORQUE, obj.MAX_PROFILE_VELOCITY, obj.MAX_MOTOR_SPEED,
                obj.PROFILE_VELOCITY, obj.PROFILE_ACCELERATION, obj.PROFILE_DECELERATION,
                obj.QUICK_STOP_DECELERATION, obj.MAX_ACCELERATION, obj.MAX_DECELERATION)
@@ -26,6 +31,9 @@ class EdsDrive402(SimDrive402):
 
     def on_axes_created(self) -> None:
         od, store = self.store.od, self.store
+        device_type = store.variables.get(key(DEVICE_TYPE, 0))
+        if device_type is not None and device_type.value is None and device_type.default is None:
+            store.set_default(DEVICE_TYPE, 0, SERVO_DRIVE_402)
         for axis in self.axes:
             for index in OPEN_LIMITS:
                 k = key(obj.for_axis(index, axis.slot), 0)

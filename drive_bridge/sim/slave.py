@@ -101,6 +101,7 @@ class SimulatedSlave(CommFaultInjection):
         self.store = ObjectStore(node.od)
         if key(IDENTITY, 4) in self.store:
             self.store.set_default(IDENTITY, 4, self.options['serial_number'])
+        self._identity_from_device_info()
         if not self.options['heartbeat']:  # a node supervised by node guarding only
             self.store.remove(CONSUMER_HEARTBEAT)
             self.store.remove(PRODUCER_HEARTBEAT)
@@ -138,6 +139,15 @@ class SimulatedSlave(CommFaultInjection):
         self._last_sync = -math.inf
         self._last_advance = time.monotonic()
         self._register_communication_objects()
+
+    def _identity_from_device_info(self) -> None:
+        """0x1018 vendor id, product code and revision from the EDS's [DeviceInfo] where the
+        file gives the objects no value (maxon's EPOS4 EDS): a device answers its identity."""
+        info = self.node.od.device_information
+        for sub, value in ((1, info.vendor_number), (2, info.product_number), (3, info.revision_number)):
+            var = self.store.variables.get(key(IDENTITY, sub))
+            if var is not None and var.value is None and var.default is None and value:
+                self.store.set_default(IDENTITY, sub, int(value))
 
     @staticmethod
     def _axis_count(node: NodeConfig) -> int:

@@ -16,6 +16,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from drive_bridge.errors import DriveBridgeError
+from drive_bridge.joint.limits import unset_problem
 from drive_bridge.model import AxisLimits
 
 
@@ -68,6 +69,9 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
     duplicates = sorted({j for j in joints if joints.count(j) > 1})
     if duplicates:
         raise TrajectoryError(f'{source}: joint(s) listed twice: {", ".join(duplicates)}')
+    for joint in joints:
+        if known[joint].todo:
+            raise TrajectoryError(f'{source}: joint {joint} is {unset_problem(known[joint])}')
     previous = -math.inf
     for i, point in enumerate(trajectory.points):
         where = f'{source}: point {i}'

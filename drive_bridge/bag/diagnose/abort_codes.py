@@ -1,8 +1,6 @@
 """SDO abort code texts: canopen's CiA 301 table, with a short reading of the usual causes."""
 from __future__ import annotations
 
-from canopen.sdo.exceptions import SdoAbortedError
-
 # what a person should check when the drive answers with this code (probable cause)
 _HINTS = {
     0x05040000: 'the server did not answer in time',
@@ -22,7 +20,10 @@ _HINTS = {
 
 
 def abort_text(code: int) -> str:
-    """'Value range of parameter exceeded' for 0x06090030; names unknown codes."""
+    """'Value range of parameter exceeded' for 0x06090030; names unknown codes (canopen's table,
+    imported when the first abort needs a text)."""
+    from canopen.sdo.exceptions import SdoAbortedError
+
     return SdoAbortedError.CODES.get(code, f'unknown abort code 0x{code:08X}')
 
 

@@ -2,7 +2,7 @@
 did not lead where they should (the state machine of drive_bridge.cia402.statemachine)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from drive_bridge.bag.diagnose.emcy import EmcyTimeline
 from drive_bridge.bag.diagnose.model import Context, Severity
@@ -18,6 +18,8 @@ from drive_bridge.cia402.statemachine import (
 
 MODE_SWITCH_S = 1.0  # as Timeouts.mode_switch
 STATE_SWITCH_S = 1.0  # as Timeouts.state_switch: a command not followed this long did not work
+EMCY_BEFORE_S = 1.0  # an EMCY this long before a Fault is its cause ...
+EMCY_AFTER_S = 0.5  # ... or this long after it (drives send the statusword first, then the EMCY)
 _REACHABLE = {  # CiA 402-2 §8.1 transitions a command can take from a state
     CMD_SHUTDOWN: {State.SWITCH_ON_DISABLED, State.SWITCHED_ON, State.OPERATION_ENABLED,
                    State.READY_TO_SWITCH_ON},
@@ -60,6 +62,7 @@ class AxisTrack:
     statusword: int | None = None
     controlword: int | None = None
     transitions: list[tuple[float, State, State]] = field(default_factory=list)  # relative t
+    seqs: list[int] = field(default_factory=list)  # each transition's event sequence number
     pending: Command | None = None
     failed: int = 0
     commands: int = 0
@@ -73,6 +76,7 @@ class Cia402Axes:
         self.ctx = ctx
         self.emcy = emcy
         self.axes: dict[tuple[int, int], AxisTrack] = {}
+        self._uncaused: list[tuple[int, int, float, int]] = []  # (finding index, node, t relative, EMCY count)
 
     def _axis(self, node: int, slot: int) -> AxisTrack:
         axis = self.axes.get((node, slot))
@@ -86,7 +90,7 @@ class Cia402Axes:
         if value == axis.statusword:
             if pending is not None:
                 pending.observed = True
-                if t - pending.time > STATE_SWITCH_S:
+                if t - pending.time > STATE_SWITCH_S and self.ctx.timing:
                     self._failed(axis, pending)
             return
         axis.statusword = value
@@ -95,19 +99,26 @@ class Cia402Axes:
             pending.observed = True
             if state in pending.expected:
                 axis.pending = None
-            elif t - pending.time > STATE_SWITCH_S:
+            elif t - pending.time > STATE_SWITCH_S and self.ctx.timing:
                 self._failed(axis, pending)
         if state is axis.state:
             return
+        self.ctx.events += 1
         axis.transitions.append((t - self.ctx.t0, axis.state, state))
+        axis.seqs.append(self.ctx.events)
         previous, axis.state = axis.state, state
         if state is State.FAULT and previous is not State.FAULT_REACTION_ACTIVE or \
                 state is State.FAULT_REACTION_ACTIVE:
-            fault = self.emcy.last_fault.get(node)
-            cause = (f'{fault.text} at t={fault.time:.3f} s' if fault is not None
-                     else 'no EMCY seen: read the error code 0x603F')
-            self.ctx.add(Severity.ERROR, t, node, f'axis {slot + 1}: {previous.label} -> {state.label}',
-                         cause, 'cia402-fault', slot=slot)
+            fault = self.emcy.fault_before(node, t, EMCY_BEFORE_S)
+            what = (f'axis {slot + 1}: in {state.label} at its first statusword (0x{value:04X})'
+                    if previous is State.UNKNOWN else f'axis {slot + 1}: {previous.label} -> {state.label}')
+            cause = '' if fault is None else fault.text + (f' at t={fault.time:.3f} s' if self.ctx.timing
+                                                           else ' before it')
+            self.ctx.add(Severity.ERROR, t, node, what, cause, 'cia402-fault', slot=slot,
+                         short=f'node {node} axis {slot + 1} in Fault' + (f' (EMCY 0x{fault.event.code:04X})'
+                                                                           if fault is not None else ''))
+            if fault is None:
+                self._uncaused.append((len(self.ctx.findings) - 1, node, t - self.ctx.t0, len(self.emcy.records)))
 
     def controlword(self, t: float, node: int, slot: int, value: int) -> None:
         axis = self.axes.get((node, slot)) or self._axis(node, slot)
@@ -118,7 +129,8 @@ class Cia402Axes:
         if value & CW_FAULT_RESET and previous is not None and previous & CW_FAULT_RESET:
             return  # the reset acts on the edge only
         name, expected = command_of(value)
-        if axis.pending is not None and axis.pending.observed and t - axis.pending.time > STATE_SWITCH_S:
+        if axis.pending is not None and axis.pending.observed and t - axis.pending.time > STATE_SWITCH_S \
+                and self.ctx.timing:
             self._failed(axis, axis.pending)
         axis.commands += 1
         # In Fault only a fault reset leads anywhere (CiA 402 transition 15): any other command
@@ -177,7 +189,23 @@ class Cia402Axes:
                      'the drive does not support the mode, or refuses to switch in its present state',
                      'cia402-mode', slot=axis.slot)
 
+    def _causes(self) -> None:
+        """A Fault with no EMCY before it: the EMCY that came right after (the drive's statusword first)."""
+        for index, node, t, count in self._uncaused:
+            finding = self.ctx.findings[index]
+            fault = self.emcy.fault_after(node, count, t, EMCY_AFTER_S)
+            if fault is not None:
+                after = f', {(fault.time - t) * 1000:.1f} ms after the statusword' if self.ctx.timing else ', after it'
+                at = f' at t={fault.time:.3f} s' if self.ctx.timing else ''
+                self.ctx.findings[index] = replace(finding, cause=f'{fault.text}{at}{after}',
+                                                   short=f'{finding.short} (EMCY 0x{fault.event.code:04X})')
+            else:
+                self.ctx.findings[index] = replace(finding, cause='no EMCY seen: read the error code 0x603F')
+
     def finish(self, end: float) -> None:
+        self._causes()
+        if not self.ctx.timing:
+            return
         for axis in self.axes.values():
             self._check_mode(axis, end)
             if axis.pending is not None and axis.pending.observed and end - axis.pending.time > STATE_SWITCH_S:

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from itertools import chain, islice
+from typing import TYPE_CHECKING, Any
 
-import can
-
+from drive_bridge.bag.candump import ERR, EXT, RTR, RawFrame
+from drive_bridge.bag.diagnose.boot import BootAnalysis
+from drive_bridge.bag.diagnose.buserrors import BusErrors
 from drive_bridge.bag.diagnose.busload import BIN_S, EXT_NOMINAL, EXT_STUFF, NOMINAL, STUFF, BusLoad
 from drive_bridge.bag.diagnose.cia402 import Cia402Axes
 from drive_bridge.bag.diagnose.emcy import EmcyTimeline
@@ -24,7 +26,10 @@ from drive_bridge.bag.diagnose.outcomes import Outcomes
 from drive_bridge.bag.diagnose.pdo import Pdos
 from drive_bridge.bag.diagnose.sdo import SdoLog, SdoTransaction
 from drive_bridge.bag.diagnose.sync import SyncStats
-from drive_bridge.bag.source import Recording
+from drive_bridge.bag.diagnose.timebase import TIMEBASE_FRAMES, timebase
+
+if TYPE_CHECKING:
+    from drive_bridge.bag.source import Recording
 
 Handler = Callable[[float, int, Any], None]
 # COB-IDs a node sends itself (EMCY, TPDO1-4, SDO response, error control): "seen" means these
@@ -47,6 +52,7 @@ class Diagnosis:
     extended_frames: int = 0
     remote_frames: int = 0
     first_error: float = 0.0  # time of the first error frame
+    timebase: str = 'recorded'  # 'recorded', 'none' (no time stamps) or 'synthetic (...)'
     counts: list[int] = field(default_factory=lambda: [0] * 2048)  # data frames per COB-ID
     remote_counts: list[int] = field(default_factory=lambda: [0] * 2048)  # RTR frames per COB-ID
     nmt: NmtTimeline = field(init=False)
@@ -59,6 +65,7 @@ class Diagnosis:
     sync: SyncStats = field(init=False)
     busload: BusLoad = field(init=False)
     pdo: Pdos = field(init=False)
+    bus_errors: BusErrors = field(init=False)
 
     @property
     def findings(self) -> list[Finding]:
@@ -87,7 +94,8 @@ class Engine:
         d.liveness = Liveness(ctx, d.nmt, d.frames_from)
         d.identities = Identities(ctx)
         d.sdo = SdoLog(ctx, self._sdo_done)
-        d.emcy = EmcyTimeline(ctx)
+        d.emcy = EmcyTimeline(ctx, d.nmt)
+        d.bus_errors = BusErrors(ctx)
         d.cia402 = Cia402Axes(ctx, d.emcy)
         d.following = FollowingError(ctx)
         d.sync = SyncStats(ctx)
@@ -96,7 +104,7 @@ class Engine:
                       0x6060: d.cia402.mode, 0x6061: d.cia402.mode_display,
                       0x6062: d.following.position_demand, 0x6064: d.following.actual,
                       0x607A: d.following.target_position}
-        d.pdo = Pdos(ctx, d.identities, self.sinks)
+        d.pdo = Pdos(ctx, d.identities, self.sinks, ctx.states)
         self.handlers: list[Handler | None] = [None] * 2048
         h = self.handlers
         h[0] = d.nmt.command
@@ -128,6 +136,7 @@ class Engine:
     def _sync(self, t: float, cob: int, data: Any) -> None:
         self.d.sync.times.append(t)
         self.d.pdo.last_sync = t
+        self.d.ctx.syncs += 1
 
     def _heartbeat(self, t: float, cob: int, data: Any) -> None:
         self.d.liveness.frame(t, cob, data, False)
@@ -162,21 +171,27 @@ class Engine:
             sink(t, node, (index - 0x6000) >> 11, value)
 
     # -- the pass --------------------------------------------------------------------------
-    def run(self, frames: Iterable[can.Message]) -> Diagnosis:
+    def run(self, frames: Iterable[RawFrame]) -> Diagnosis:
         d = self.d
+        frames = iter(frames)
+        head = list(islice(frames, TIMEBASE_FRAMES))
+        d.timebase = timebase(head)
+        d.ctx.timing = d.timebase == 'recorded'
         handlers = self.handlers
         counts = d.counts
         remote_counts = d.remote_counts
         nominal_bins = d.busload.nominal
         stuffed_bins = d.busload.stuffed
+        emcy = d.emcy
         inv = 1.0 / BIN_S
         t0: float | None = None
         n = errors = extended = remote = backwards = invalid = 0
         t = last = end = 0.0
         first_back = first_invalid = 0.0
+        prev = -1
         liveness = d.liveness
-        for msg in frames:
-            t = msg.timestamp
+        error_frames = d.bus_errors
+        for t, cob, flags, data in chain(head, frames):
             if t0 is None:
                 t0 = d.t0 = d.ctx.t0 = last = end = t
             n += 1
@@ -187,47 +202,53 @@ class Engine:
             elif t > end:
                 end = t
             last = t
-            if msg.is_error_frame:
-                if not errors:
-                    d.first_error = t
-                errors += 1
-                continue
-            dlc = msg.dlc if msg.dlc <= 8 else 8
+            size = len(data)
+            dlc = size if size <= 8 else 8
             b = int((t - t0) * inv) if t >= t0 else 0
             if b >= len(nominal_bins):
                 d.busload.grow(b + 64)
-            if msg.is_extended_id:
-                extended += 1
-                nominal_bins[b] += EXT_NOMINAL[0 if msg.is_remote_frame else dlc]
-                stuffed_bins[b] += EXT_STUFF[0 if msg.is_remote_frame else dlc]
-                continue
-            cob = msg.arbitration_id
+            if flags & 7:
+                if flags & ERR:
+                    if not errors:
+                        d.first_error = t
+                    errors += 1
+                    error_frames.frame(t, cob, data)
+                    continue
+                if flags & EXT:
+                    extended += 1
+                    nominal_bins[b] += EXT_NOMINAL[0 if flags & RTR else dlc]
+                    stuffed_bins[b] += EXT_STUFF[0 if flags & RTR else dlc]
+                    continue
+                if cob <= 0x7FF:
+                    remote += 1
+                    remote_counts[cob] += 1
+                    nominal_bins[b] += NOMINAL[0]
+                    stuffed_bins[b] += STUFF[0]
+                    if 0x700 < cob < 0x780:
+                        liveness.frame(t, cob, b'', True)
+                    prev = cob
+                    continue
             if cob > 0x7FF:  # not an 11-bit identifier: a broken trace line
                 if not invalid:
                     first_invalid = t
                 invalid += 1
-                continue
-            if msg.is_remote_frame:
-                remote += 1
-                remote_counts[cob] += 1
-                nominal_bins[b] += NOMINAL[0]
-                stuffed_bins[b] += STUFF[0]
-                if 0x700 < cob < 0x780:
-                    liveness.frame(t, cob, b'', True)
                 continue
             counts[cob] += 1
             nominal_bins[b] += NOMINAL[dlc]
             stuffed_bins[b] += STUFF[dlc]
             handler = handlers[cob]
             if handler is not None:
-                handler(t, cob, msg.data)
+                if 0x80 < cob < 0x100:
+                    emcy.prev_cob = prev if prev >= 0 else None
+                handler(t, cob, data)
+            prev = cob
         if t0 is None:
             raise DiagnoseError(f'{d.path}: the recording holds no CAN frames')
         d.frames, d.error_frames, d.extended_frames, d.remote_frames = n, errors, extended, remote
         d.duration = end - t0
         del nominal_bins[int(d.duration * inv) + 1:]
         del stuffed_bins[int(d.duration * inv) + 1:]
-        if backwards:
+        if backwards and d.ctx.timing:
             d.ctx.add(Severity.WARNING, max(first_back, t0), None, f'clock went back {backwards} times',
                       'frames out of time order (traces merged, or the logger\'s clock stepped): '
                       'their times count from the start of the recording', 'clock-backwards')
@@ -241,21 +262,39 @@ class Engine:
 
     def _finish(self, end: float) -> None:
         d = self.d
+        ctx = d.ctx
         d.sdo.finish(end)
         d.liveness.finish(end)
         d.identities.finish()
         d.cia402.finish(end)
         d.following.finish()
         d.sync.finish()
-        d.busload.finish()
-        d.pdo.finish()
+        if ctx.timing:
+            d.busload.finish()
+        d.pdo.finish(d.sync.nominal)
+        if ctx.master is None:
+            ctx.master = self._master()
+        d.emcy.finish(ctx.master)
+        BootAnalysis(ctx, d.nmt, d.sdo).finish(end)
         self._check_config()
-        if d.error_frames:
-            d.ctx.add(Severity.WARNING, d.first_error, None, f'{d.error_frames} CAN error frame(s)',
-                      'bus errors: termination, wiring, a wrong bit rate on one node, or a faulty node',
-                      'error-frames')
-        outcomes = Outcomes(d.nmt, d.emcy, d.cia402)
-        d.ctx.findings = [outcomes.annotate(f) for f in d.ctx.findings]
+        d.bus_errors.finish()
+        if not ctx.timing:
+            why = ('the log has no time stamps (pasted screen output)' if d.timebase == 'none' else
+                   f'its time stamps are synthetic ({d.timebase})')
+            ctx.add(Severity.INFO, d.t0, None, f'timing not judged: {why}',
+                    'heartbeat and SYNC periods, gaps, PDO rates, SDO latencies and the bus load need the bus\'s '
+                    'own time stamps (candump -L, or -t a)', 'timebase')
+        outcomes = Outcomes(d.nmt, d.emcy, d.cia402, ctx.timing)
+        ctx.findings = [outcomes.annotate(f) for f in ctx.findings]
+
+    def _master(self) -> int | None:
+        """The master, as the traffic shows it: the one node whose frames are only error control
+        (and EMCY): no SDO answers, no TPDO, never addressed by SDO."""
+        d = self.d
+        counts = d.counts
+        only = [n for n in d.nodes_seen() if counts[0x700 + n] and not counts[0x580 + n] and not counts[0x600 + n]
+                and not any(counts[base + n] for base in (0x180, 0x280, 0x380, 0x480))]
+        return only[0] if len(only) == 1 and d.nmt.commands else None
 
     def _check_config(self) -> None:
         d = self.d
@@ -280,7 +319,7 @@ class Engine:
 
 
 def diagnose(recording: Recording, inputs: DiagnoseInputs | None = None,
-             frames: Iterable[can.Message] | None = None) -> Diagnosis:
-    """One pass over ``frames`` (default: the recording's) with the inputs' config and EDS."""
+             frames: Iterable[RawFrame] | None = None) -> Diagnosis:
+    """One pass over ``frames`` (raw frames; default: the recording's) with the inputs' config and EDS."""
     engine = Engine(recording, inputs or DiagnoseInputs())
-    return engine.run(recording.frames() if frames is None else frames)
+    return engine.run(recording.raw_frames() if frames is None else frames)

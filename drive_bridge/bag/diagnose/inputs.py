@@ -5,16 +5,15 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from drive_bridge.bag.diagnose.errors import DiagnoseError
 from drive_bridge.bag.diagnose.model import Context, NodeInfo
-from drive_bridge.bag.source import Recording
-from drive_bridge.bag.stored import load_stored_config
-from drive_bridge.config.eds import load_object_dictionary
-from drive_bridge.config.loader import load_bus_config
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.families.registry import get_family
-from drive_bridge.model import BusConfig
+
+if TYPE_CHECKING:  # the config loader, EDS parser and families are imported only when a config or EDS is given
+    from drive_bridge.bag.source import Recording
+    from drive_bridge.model import BusConfig
 
 
 @dataclass
@@ -23,6 +22,17 @@ class DiagnoseInputs:
     config_source: str = ''
     eds: dict[int, Path] = field(default_factory=dict)
     bitrate: int | None = None
+
+    def eds_names(self) -> dict[int, str]:
+        """Per node, the EDS/DCF the diagnosis names objects from: --eds, else the config's (stored in the bag)."""
+        out: dict[int, str] = {}
+        if self.config is not None:
+            stored = self.config_source.startswith('stored')
+            for node in self.config.nodes:
+                if node.eds_path is not None:
+                    out[node.node_id] = f'{node.eds_path.name}' + (' (stored in the bag)' if stored else '')
+        out.update({node: str(path) for node, path in self.eds.items()})
+        return out
 
 
 def parse_eds_args(items: Sequence[str]) -> dict[int, Path]:
@@ -47,9 +57,11 @@ def load_inputs(recording: Recording, config: Path | None = None, eds: Mapping[i
         if config is not None:
             if not config.exists():
                 raise DiagnoseError(f'{config}: no such config file')
+            from drive_bridge.config.loader import load_bus_config
             inputs.config = load_bus_config(config)
             inputs.config_source = str(config)
         elif recording.config_yaml:
+            from drive_bridge.bag.stored import load_stored_config
             inputs.config = load_stored_config(recording.config_yaml, recording.files,
                                                f'{recording.path} (stored config)')
             inputs.config_source = f'stored in {recording.path.name}'
@@ -67,7 +79,9 @@ def context_for(inputs: DiagnoseInputs) -> Context:
     ctx = Context()
     config = inputs.config
     if config is not None:
+        from drive_bridge.families.registry import get_family
         ctx.bitrate = config.bus.bitrate
+        ctx.master = config.master.node_id
         ctx.sync_period = config.master.sync_period or None
         for node in config.nodes:
             ctx.nodes[node.node_id] = NodeInfo(
@@ -79,6 +93,7 @@ def context_for(inputs: DiagnoseInputs) -> Context:
                 following_limit={axis.slot: axis.position_loop.following_error for axis in node.axes
                                  if axis.position_loop.following_error})
     for node_id, path in inputs.eds.items():
+        from drive_bridge.config.eds import load_object_dictionary
         try:
             od = load_object_dictionary(path, node_id)
         except DriveBridgeError as exc:

@@ -49,6 +49,7 @@ class Liveness:
 
     def frame(self, t: float, cob: int, data: bytes | bytearray, remote: bool) -> None:
         node = cob - 0x700
+        self.ctx.events += 1
         live = self.nodes.get(node) or self.node(node)
         if remote:
             if live.guard_pending is not None:
@@ -78,6 +79,7 @@ class Liveness:
             live.reply_times.append(t)
         else:
             live.heartbeats.append(t)
+        self.ctx.states[node] = state
         if state != live.last_state:
             live.last_state = state
             self.nmt.state(t, node, f'NMT state {STATES.get(state, f"0x{state:02X} (invalid)")}')
@@ -88,6 +90,8 @@ class Liveness:
             self._guarding(node, live)
 
     def _heartbeat(self, node: int, live: NodeLiveness, end: float) -> None:
+        if not self.ctx.timing:
+            return
         beats = live.heartbeats
         boots = set(self.nmt.boot_ups.get(node, []))
         # after a boot-up the producer may be off until the master writes 0x1017: no gap

@@ -3,11 +3,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from canopen.objectdictionary import ObjectDictionary
+if TYPE_CHECKING:  # not imported to diagnose: canopen and the families cost a fast run its start-up
+    from canopen.objectdictionary import ObjectDictionary
 
-from drive_bridge.families.interface import DriveFamily
+    from drive_bridge.families.interface import DriveFamily
 
 
 class Severity(str, Enum):
@@ -33,19 +34,26 @@ class Finding:
     joint: str | None = None
     kind: str = ''  # a short stable tag for tools: 'heartbeat-gap', 'sdo-abort', 'emcy', ...
     outcome: str = ''  # errors: 'recovered: ...' / 'unresolved ...' (from what came after)
+    short: str = ''  # the verdict line's words for it ('node 2 booted 1.2 s late'); default: what
+    seq: int = 0  # Context.events when it was found: its order where time stamps are missing
+
+    @property
+    def headline(self) -> str:
+        return self.short or (f'node {self.node}: ' if self.node is not None else '') + self.what
 
     def to_json(self) -> dict[str, Any]:
         return {'severity': self.severity.value, 'time': round(self.time, 6), 'node': self.node,
                 'joint': self.joint, 'kind': self.kind, 'what': self.what, 'cause': self.cause,
-                'outcome': self.outcome}
+                'outcome': self.outcome, 'short': self.headline}
+
+    def where(self) -> str:
+        where = f'node {self.node}' if self.node is not None else 'bus'
+        return where + (f' ({self.joint})' if self.joint else '')
 
     def __str__(self) -> str:
-        where = f'node {self.node}' if self.node is not None else 'bus'
-        if self.joint:
-            where += f' ({self.joint})'
         cause = f': {self.cause}' if self.cause else ''
         outcome = f' [{self.outcome}]' if self.outcome else ''
-        return f'{self.severity.value.upper():7} t={self.time:9.3f} s  {where}: {self.what}{cause}{outcome}'
+        return f'{self.severity.value.upper():7} t={self.time:9.3f} s  {self.where()}: {self.what}{cause}{outcome}'
 
 
 @dataclass
@@ -72,6 +80,11 @@ class Context:
     sync_period: float | None = None
     t0: float = 0.0
     findings: list[Finding] = field(default_factory=list)
+    timing: bool = True  # False: no time stamps, or synthetic ones: timing findings are not judged
+    master: int | None = None  # the master's node id (config, else as the traffic shows), None: not known
+    events: int = 0  # NMT, SDO and error-control events so far: their order where time stamps are missing
+    syncs: int = 0  # SYNC frames so far
+    states: dict[int, int] = field(default_factory=dict)  # node -> NMT state as its error control / NMT says now
 
     def node(self, node_id: int) -> NodeInfo:
         info = self.nodes.get(node_id)
@@ -93,5 +106,8 @@ class Context:
         return info.joints.get(slot)
 
     def add(self, severity: Severity, t: float, node: int | None, what: str, cause: str = '',
-            kind: str = '', slot: int | None = None) -> None:
-        self.findings.append(Finding(severity, t - self.t0, node, what, cause, self.joint(node, slot), kind))
+            kind: str = '', slot: int | None = None, short: str = '') -> Finding:
+        finding = Finding(severity, t - self.t0, node, what, cause, self.joint(node, slot), kind, short=short,
+                          seq=self.events)
+        self.findings.append(finding)
+        return finding

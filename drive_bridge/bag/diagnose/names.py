@@ -1,13 +1,18 @@
 """Object names and data types: the node's EDS when given, else CiA 301/402 (the shipped
-generic CiA 402 EDS holds the standard objects), else the hex index."""
+generic CiA 402 EDS holds the standard objects), else the hex index. An object of axis slot n
+(0x6000 + 0x800 n) is named by slot 0's only when that is a CiA 402 object: 0x7000 is no
+"axis 3" of 0x6000 (a CiA 401 object), it is the device's own. canopen is imported when the
+first name is asked for (a log without SDO never pays for it)."""
 from __future__ import annotations
 
 from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-import canopen
-from canopen.objectdictionary import ObjectDictionary, ODVariable
+if TYPE_CHECKING:
+    from canopen.objectdictionary import ObjectDictionary, ODVariable
 
-from drive_bridge.families import DATA_DIR
+GENERIC_402_EDS = Path(__file__).resolve().parents[2] / 'families' / 'data' / 'generic402.eds'
 
 _SIGNED = {0x02, 0x03, 0x04, 0x10, 0x15}  # INTEGER8/16/32/24/64
 _STANDARD_EXTRA = {0x1001: 'Error register', 0x1002: 'Manufacturer status register',
@@ -19,10 +24,14 @@ _STANDARD_EXTRA = {0x1001: 'Error register', 0x1002: 'Manufacturer status regist
 
 @lru_cache(maxsize=1)
 def standard_od() -> ObjectDictionary:
-    return canopen.import_od(str(DATA_DIR / 'generic402.eds'), 1)
+    import canopen
+
+    return canopen.import_od(str(GENERIC_402_EDS), 1)
 
 
 def _variable(od: ObjectDictionary | None, index: int, subindex: int) -> tuple[str, ODVariable | None]:
+    from canopen.objectdictionary import ODVariable
+
     for table in (od, standard_od()):
         if table is None or index not in table:
             continue
@@ -48,10 +57,11 @@ def _name_cached(od_id: int, index: int, subindex: int) -> str:
     name, _var = _variable(od, index, subindex)
     if not name:
         base = _standard_base(index)
-        name, _var = _variable(None, base, subindex)
-        name = name or _STANDARD_EXTRA.get(base, '')
-        if name and base != index:
-            name += f' (axis {(index - 0x6000) // 0x800 + 1})'
+        if base == index:
+            name = _STANDARD_EXTRA.get(index, '')
+        elif 0x6040 <= base < 0x6800:  # CiA 402 objects only (0x6000-0x603F: CiA 401 I/O and others)
+            name, _var = _variable(None, base, subindex)
+            name = name and f'{name} (axis {(index - 0x6000) // 0x800 + 1})'
     return name
 
 
@@ -80,6 +90,6 @@ def is_signed(od: ObjectDictionary | None, index: int, subindex: int) -> bool:
 def _signed_cached(od_id: int, index: int, subindex: int) -> bool:
     od = _ODS.get(od_id)
     _name, var = _variable(od, index, subindex)
-    if var is None:
+    if var is None and 0x6040 <= _standard_base(index) < 0x6800:
         _name, var = _variable(None, _standard_base(index), subindex)
     return var is not None and var.data_type in _SIGNED

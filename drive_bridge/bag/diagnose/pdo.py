@@ -5,19 +5,24 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
-
-from canopen.objectdictionary import ODArray, ODRecord, ODVariable
+from typing import TYPE_CHECKING, Any
 
 from drive_bridge.bag.diagnose.identity import Identities
+from drive_bridge.bag.diagnose.infer402 import Cia402Inference
 from drive_bridge.bag.diagnose.model import Context, Severity
 from drive_bridge.bag.diagnose.names import is_signed, object_label
 from drive_bridge.bag.diagnose.sdo import SdoTransaction
+
+if TYPE_CHECKING:  # canopen is imported when an EDS gives the mapping, not for every diagnosis
+    from canopen.objectdictionary import ODVariable
 
 AxisSink = Callable[[float, int, int, int], None]  # (t, node, axis slot, value)
 CYCLIC_S = 0.5  # a PDO sent at least this often is cyclic: its silences are findings (not event PDOs')
 SILENCE_FACTOR = 5.0  # a PDO silent this many mean intervals (and >= 0.1 s) is a gap
 COMM = {0x1400: 'RPDO', 0x1800: 'TPDO'}
+NOT_OPERATIONAL = {0x7F: 'pre-operational', 0x04: 'stopped'}  # NMT states in which a node ignores PDOs
+GUESSED = ('CiA 402 predefined', 'inferred from the traffic')  # mappings of which only the first word is known
+SLOWER = 1.1  # a SYNC-driven PDO this many SYNC periods apart on average is slower than SYNC
 
 
 def _stored(variable: ODVariable) -> int:
@@ -51,6 +56,7 @@ class PdoChannel:
     source: str = ''
     pending: dict[int, int] = field(default_factory=dict)  # mapping subindex -> raw entry
     count: int | None = None  # mapping subindex 0 as last seen
+    disabled: int | None = None  # the COB-ID entry with bit 31 set (PDO not valid), as read or written
 
     def label(self) -> str:
         return f'{self.kind}{self.number} of node {self.node}'
@@ -67,12 +73,19 @@ class CobStats:
     sync_delay_max: float = 0.0
     sync_delays: int = 0
     data: bytes | bytearray = b''
+    first_sync: float = -1.0  # the last SYNC before its first frame
+    not_operational: int = 0  # RPDO frames sent while the node was pre-operational or stopped
+    first_not_operational: float = 0.0
+    node_state: int = 0  # that state
 
 
 class Pdos:
-    def __init__(self, ctx: Context, identities: Identities, sinks: Mapping[int, AxisSink]) -> None:
+    def __init__(self, ctx: Context, identities: Identities, sinks: Mapping[int, AxisSink],
+                 states: Mapping[int, int | None] | None = None) -> None:
         self.ctx = ctx
         self.identities = identities
+        self.states = states if states is not None else {}  # node -> its NMT state as its heartbeat last said
+        self.infer = Cia402Inference(ctx, self.configure, self._decode)
         self.sinks = sinks  # base index (slot 0) -> the analyser that follows the object
         self.channels: dict[tuple[int, str, int], PdoChannel] = {}
         self.by_cob: dict[int, PdoChannel] = {}
@@ -80,6 +93,7 @@ class Pdos:
         self.decoders: dict[int, list[tuple[int, int, bool, AxisSink, int, int]]] = {}
         self.last_sync: float = -1.0
         self._resolved: set[int] = set()
+        self._inferable: set[int] = set()  # COB-IDs of the predefined set whose mapping the traffic may tell
         self.register: Callable[[int], None] = lambda cob: None  # the engine routes a new COB-ID here
 
     # -- mapping ---------------------------------------------------------------------------
@@ -132,6 +146,8 @@ class Pdos:
     def sdo(self, txn: SdoTransaction) -> None:
         """Mapping and COB-IDs as the trace configures (or reads back) them."""
         index, value = txn.index, txn.value
+        if 0x6040 <= index < 0x6800 or (index == 0x1000 and value is not None and value & 0xFFFF == 402):
+            self.infer.hint(txn.node)
         if not 0x1400 <= index < 0x1C00 or value is None:
             return
         kind = 'RPDO' if index < 0x1800 else 'TPDO'
@@ -139,6 +155,7 @@ class Pdos:
         channel = self._channel(txn.node, kind, number)
         if index & 0x200 == 0:  # communication parameter
             if txn.subindex == 1:
+                channel.disabled = value if value & 0x80000000 else None
                 self._move(channel, value & 0x7FF)
             return
         if txn.subindex == 0:
@@ -165,6 +182,7 @@ class Pdos:
             mapping = (0x1600 if kind == 'RPDO' else 0x1A00) + number - 1
             record = od.get(mapping)
             entries: tuple[tuple[int, int, int], ...] = ()
+            from canopen.objectdictionary import ODArray, ODRecord
             if isinstance(record, (ODRecord, ODArray)):
                 try:
                     count = _stored(record[0])
@@ -179,6 +197,8 @@ class Pdos:
         if number == 1 and ident is not None and ident.profile == 402:
             self.configure(node, kind, 1, cob, ((0x6041 if kind == 'TPDO' else 0x6040, 0, 16),),
                            'CiA 402 predefined')
+        elif info is None or info.family is None:
+            self._inferable.add(cob)  # the inference looks at its frames
 
     # -- frames ----------------------------------------------------------------------------
     def frame(self, t: float, cob: int, data: bytes | bytearray) -> None:
@@ -193,6 +213,15 @@ class Pdos:
         stats.count += 1
         stats.last = t
         stats.data = data
+        if stats.count == 1:
+            stats.first_sync = self.last_sync
+        if not cob & 0x80 and 0x200 <= cob < 0x580:  # RPDO ranges: the node ignores them unless operational
+            state = self.states.get(cob & 0x7F)
+            if state in NOT_OPERATIONAL:
+                if not stats.not_operational:
+                    stats.first_not_operational = t
+                stats.not_operational += 1
+                stats.node_state = state or 0
         if self.last_sync >= 0 and cob & 0x80:  # TPDO ranges: 0x180, 0x280, ...
             delay = t - self.last_sync
             stats.sync_delay_sum += delay
@@ -205,17 +234,37 @@ class Pdos:
                 self._fallback(cob)
                 decoder = self.decoders.get(cob)
             if decoder is None:
+                if cob in self._inferable and not self.infer.frame(t, cob, cob & 0x7F, bool(cob & 0x80), data):
+                    self._inferable.discard(cob)
                 return
+        self._decode(t, cob, data)
+
+    def _decode(self, t: float, cob: int, data: bytes | bytearray) -> None:
+        decoder = self.decoders.get(cob)
+        if decoder is None:
+            return
         size = len(data)
         for start, end, signed, sink, node, slot in decoder:
             if end <= size:
                 sink(t, node, slot, int.from_bytes(data[start:end], 'little', signed=signed))
 
     # -- results ---------------------------------------------------------------------------
-    def finish(self) -> None:
+    def finish(self, sync_period: float | None = None) -> None:
+        self._disabled()
         for cob, stats in sorted(self.stats.items()):
             channel = self.by_cob.get(cob)
-            if channel is not None and channel.entries:
+            if stats.not_operational:
+                node = channel.node if channel else cob & 0x7F
+                label = channel.label() if channel else f'PDO 0x{cob:03X}'
+                self.ctx.add(Severity.WARNING, stats.first_not_operational, node,
+                             f'{stats.not_operational} frame(s) of {label} (0x{cob:03X}) sent while the node was '
+                             f'{NOT_OPERATIONAL[stats.node_state]}: it ignores them',
+                             'the node was never started (NMT start, 0x01) or fell back; only an operational node '
+                             'takes PDOs', 'pdo-not-operational',
+                             short=f'PDOs sent to node {node} while {NOT_OPERATIONAL[stats.node_state]}')
+            if sync_period and self.ctx.timing:
+                self._slower_than_sync(cob, stats, channel, sync_period)
+            if channel is not None and channel.entries and channel.source not in GUESSED:
                 mapped = (sum(bits for _i, _s, bits in channel.entries) + 7) // 8
                 if mapped != len(stats.data):
                     self.ctx.add(Severity.WARNING, stats.last, channel.node,
@@ -224,7 +273,7 @@ class Pdos:
                                  'the device maps other objects than assumed: give the config (or the mapping '
                                  'SDO traffic) the device really uses' if channel.source != 'trace' else
                                  'the device sends another length than it was configured to', 'pdo-length')
-            if stats.count < 10:
+            if stats.count < 10 or not self.ctx.timing:
                 continue
             mean = (stats.last - stats.first) / (stats.count - 1)
             if mean <= CYCLIC_S and stats.max_gap > max(SILENCE_FACTOR * mean, 0.1):
@@ -234,6 +283,49 @@ class Pdos:
                 self.ctx.add(Severity.WARNING, stats.t_max_gap, node,
                              f'{what} (0x{cob:03X}) silent {stats.max_gap:.2f} s (normally every {mean * 1000:.1f} ms)',
                              'the producer stopped (NMT state, no SYNC, or the node was off the bus)', 'pdo-gap')
+
+    def _disabled(self) -> None:
+        """PDOs the trace shows disabled (COB-ID bit 31 read or written) that then sent nothing: why no PDO came."""
+        by_node: dict[int, list[PdoChannel]] = {}
+        for channel in self.channels.values():
+            if channel.disabled is not None and not self.stats.get(channel.cob_id or -1):
+                by_node.setdefault(channel.node, []).append(channel)
+        for node, channels in sorted(by_node.items()):
+            channels.sort(key=lambda c: (c.kind, c.number))
+            names = ', '.join(f'{c.kind}{c.number} (0x{c.disabled or 0:08X})' for c in channels)
+            empty = [f'{c.kind}{c.number}' for c in channels if c.count == 0]
+            mapping = f'; {", ".join(empty)} map(s) nothing (mapping subindex 0 = 0)' if empty else ''
+            self.ctx.add(Severity.WARNING, self.ctx.t0, node,
+                         f'{names} of node {node} disabled: COB-ID bit 31 set (PDO not valid){mapping}',
+                         'these PDOs are not sent: enable them (clear bit 31 of 0x1800+n:1 / 0x1400+n:1 after '
+                         'mapping them) in the config or the EDS', 'pdo-disabled',
+                         short=f'PDOs of node {node} disabled')
+
+    def _slower_than_sync(self, cob: int, stats: CobStats, channel: PdoChannel | None, period: float) -> None:
+        """A PDO that follows SYNC (all of its frames soon after one) but not every SYNC."""
+        if stats.count < 10 or stats.first_sync < 0 or stats.sync_delays < stats.count or \
+                stats.sync_delay_max > 0.5 * period:
+            return
+        mean = (stats.last - stats.first) / (stats.count - 1)
+        ratio = mean / period
+        if ratio < SLOWER:
+            return
+        node = channel.node if channel else cob & 0x7F
+        label = channel.label() if channel else f'PDO 0x{cob:03X}'
+        every = round(ratio)
+        if every >= 2 and abs(ratio - every) < 0.05 * every:
+            self.ctx.add(Severity.INFO, stats.first, node,
+                         f'{label} (0x{cob:03X}) comes every {every} SYNC ({mean * 1000:.1f} ms; SYNC every '
+                         f'{period * 1000:.1f} ms)',
+                         f'its transmission type is probably {every} (every {every}th SYNC)',
+                         'pdo-rate')
+            return
+        missed = 1.0 - 1.0 / ratio
+        self.ctx.add(Severity.WARNING, stats.first, node,
+                     f'{label} (0x{cob:03X}) comes every {mean * 1000:.1f} ms on average, SYNC every '
+                     f'{period * 1000:.1f} ms: {missed:.0%} of the SYNC cycles go without it',
+                     'the producer skips cycles (busy, or its frames are lost) or is not SYNC-driven '
+                     '(transmission type)', 'pdo-rate', short=f'{label} misses {missed:.0%} of the SYNC cycles')
 
     def rows(self) -> list[dict[str, Any]]:
         out = []

@@ -1,27 +1,43 @@
 """The report's plots, drawn with matplotlib and returned as inline SVG (no external
 references: the XML prolog, DOCTYPE, metadata and namespace URLs are dropped, which inline SVG
-in HTML5 does not need)."""
+in HTML5 does not need). matplotlib is imported when the first plot is drawn: a report whose
+sections have nothing worth a plot (a short excerpt) does not pay for it."""
 from __future__ import annotations
 
 import io
 import re
+from typing import TYPE_CHECKING, Any
 
-import matplotlib
+from drive_bridge.bag.diagnose.busload import BIN_S
+from drive_bridge.bag.diagnose.engine import Diagnosis
+from drive_bridge.cia402.statemachine import State
 
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
-from drive_bridge.bag.diagnose.busload import BIN_S  # noqa: E402
-from drive_bridge.bag.diagnose.engine import Diagnosis  # noqa: E402
-from drive_bridge.cia402.statemachine import State  # noqa: E402
+MIN_SPAN_S = 1.0  # a recording shorter than this (or without time stamps) gets tables, no time plots
 
 MAX_POINTS = 3000
 _STRIP = [re.compile(r'<\?xml[^>]*\?>\s*'), re.compile(r'<!DOCTYPE[^>]*>\s*'),
           re.compile(r'<metadata>.*?</metadata>\s*', re.S), re.compile(r'\s+xmlns(:\w+)?="[^"]*"')]
 
 
+def worth_plotting(d: Diagnosis) -> bool:
+    """Time plots say something only over a recorded time base of some length."""
+    return d.ctx.timing and d.duration >= MIN_SPAN_S
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def _svg(fig: Figure) -> str:
+    plt = _pyplot()
     buffer = io.StringIO()
     with plt.rc_context({'svg.fonttype': 'none', 'svg.hashsalt': 'drive-bridge'}):
         fig.savefig(buffer, format='svg', bbox_inches='tight', metadata={'Date': None})
@@ -32,8 +48,8 @@ def _svg(fig: Figure) -> str:
     return text
 
 
-def _figure(height: float = 2.6) -> tuple[Figure, plt.Axes]:
-    fig, ax = plt.subplots(figsize=(9.5, height))
+def _figure(height: float = 2.6) -> tuple[Figure, Any]:
+    fig, ax = _pyplot().subplots(figsize=(9.5, height))
     ax.grid(True, alpha=0.3)
     return fig, ax
 
@@ -104,7 +120,7 @@ def timeline(d: Diagnosis) -> str:
 
 def sync_histogram(d: Diagnosis) -> str:
     fig, ax = _figure()
-    periods = d.sync.periods * 1000
+    periods = [p * 1000 for p in d.sync.periods]
     ax.hist(periods, bins=80, color='C0', log=True)
     if d.sync.nominal:
         ax.axvline(d.sync.nominal * 1000, color='C3', lw=1, label='nominal')

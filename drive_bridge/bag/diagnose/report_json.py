@@ -8,6 +8,7 @@ from drive_bridge.bag.diagnose.engine import Diagnosis
 from drive_bridge.bag.diagnose.model import Severity
 from drive_bridge.bag.diagnose.names import object_label
 from drive_bridge.bag.diagnose.sdo import format_value
+from drive_bridge.bag.diagnose.verdict import clock, group, verdict
 from drive_bridge.cia402.modes import mode_name
 
 
@@ -58,15 +59,26 @@ def sdo_rows(d: Diagnosis) -> list[dict[str, Any]]:
     return rows
 
 
+def timing_note(d: Diagnosis) -> str:
+    if d.ctx.timing:
+        return ''
+    return 'timing not judged: no time stamps' if d.timebase == 'none' else f'timing not judged: {d.timebase}'
+
+
 def to_json(d: Diagnosis) -> dict[str, Any]:
+    groups = group(d.ctx.findings)
+    timed = d.ctx.timing
     return {
+        'verdict': verdict(groups, timing_note(d)),
         'recording': {'path': d.path, 'format': d.format, 'frames': d.frames, 'duration_s': d.duration,
-                      'start': start_time(d), 'error_frames': d.error_frames,
+                      'start': start_time(d), 'timebase': d.timebase, 'error_frames': d.error_frames,
                       'extended_frames': d.extended_frames, 'remote_frames': d.remote_frames},
         'inputs': {'config': d.inputs.config_source or None,
-                   'eds': {str(k): str(v) for k, v in d.inputs.eds.items()}, 'bitrate': d.ctx.bitrate},
+                   'eds': {str(k): v for k, v in d.inputs.eds_names().items()}, 'bitrate': d.ctx.bitrate},
         'summary': {s.value: d.count(s) for s in Severity},
-        'findings': [f.to_json() for f in d.findings],
+        'findings': [{**f.to_json(), 'clock': clock(d.t0, f.time, timed)} for f in d.findings],
+        'grouped': [{**g.first.to_json(), 'clock': clock(d.t0, g.first.time, timed), 'count': g.count,
+                     'last_time': round(g.findings[-1].time, 6)} for g in groups],
         'nodes': node_rows(d),
         'nodes_addressed_only': d.nodes_addressed_only(),
         'nmt': {'commands': d.nmt.commands, 'invalid_commands': d.nmt.invalid,

@@ -11,6 +11,10 @@ from drive_bridge.bag.diagnose.names import object_name
 
 NO_ANSWER_S = 1.0  # a request unanswered this long (or overtaken by the next) has no response
 _PROBES = {0x06020000, 0x06090011}  # a read of an absent object: a master probing, not a fault
+# objects CiA 301 / CiA 402 make mandatory: a device without them fails a master's boot
+MANDATORY = {(0x1000, 0): 'CiA 301', (0x1018, 0): 'CiA 301', (0x1018, 1): 'CiA 301', (0x6502, 0): 'CiA 402',
+             (0x6040, 0): 'CiA 402', (0x6041, 0): 'CiA 402', (0x6060, 0): 'CiA 402', (0x6061, 0): 'CiA 402'}
+TIMEOUT = 0x05040000
 
 
 @dataclass(slots=True)
@@ -28,6 +32,11 @@ class SdoTransaction:
     phase: str = ''  # block transfer: init, init-resp, data, last, end, end-sent, end-resp
     status: str = 'open'  # ok / abort / no response / open
     last_segment: bool = False  # download: the client sent its last segment
+    answered: bool = False  # the server's frame to the client's last one came
+    invalid: int = 0  # server frames that fit no request of it (a burst of garbage)
+    by_client: bool = False  # the master aborted it
+    seq: int = 0  # order among NMT / SDO / error-control events (Context.events)
+    syncs: int = 0  # SYNC frames before its request
 
     @property
     def latency(self) -> float | None:
@@ -51,6 +60,8 @@ class SdoLog:
         self.transactions: list[SdoTransaction] = []
         self._open: dict[int, SdoTransaction] = {}
         self.unpaired_responses = 0
+        self.invalid: dict[int, list[tuple[float, SdoTransaction | None, int]]] = {}  # node -> bursts
+        self._last: dict[int, SdoTransaction] = {}  # node -> last transaction (closed or not)
 
     # -- frames ----------------------------------------------------------------------------
     def request(self, t: float, cob: int, data: bytes | bytearray) -> None:
@@ -68,6 +79,9 @@ class SdoLog:
             if len(data) < 4:
                 return
             txn = SdoTransaction(node, data[1] | data[2] << 8, data[3], ccs in (1, 6), t)
+            ctx = self.ctx
+            ctx.events += 1
+            txn.seq, txn.syncs = ctx.events, ctx.syncs
             if ccs in (5, 6):
                 txn.block, txn.phase = True, 'init'
             if ccs == 1 and b0 & 0x02:
@@ -77,17 +91,23 @@ class SdoLog:
             elif ccs == 1:
                 txn.segmented = True
             self._open[node] = txn
+            self._last[node] = txn
             self.transactions.append(txn)
         elif ccs == 0 and txn is not None and txn.write:  # download segment
             n = (b0 >> 1) & 7
             txn.data += data[1:8 - n]
             txn.last_segment = bool(b0 & 0x01)
+            txn.answered = False
+        elif ccs == 3 and txn is not None and not txn.write:  # upload segment request
+            txn.answered = False
         elif ccs == 4 and len(data) >= 8:  # client abort
             if txn is None:
                 txn = SdoTransaction(node, data[1] | data[2] << 8, data[3], False, t)
                 self.transactions.append(txn)
+                self._last[node] = txn
             txn.abort = _u32(data, 4)
             txn.t_response = t
+            txn.by_client = True
             self._close(txn, 'abort', by_client=True)
 
     def response(self, t: float, cob: int, data: bytes | bytearray) -> None:
@@ -95,15 +115,28 @@ class SdoLog:
             return
         node = cob - 0x580
         txn = self._open.get(node)
-        if txn is None:
-            self.unpaired_responses += 1
-            return
         b0 = data[0]
         scs = b0 >> 5
-        txn.t_response = t
+        if txn is None:
+            if scs == 4 and len(data) >= 8:
+                self._server_abort_after(t, node, data)
+                return
+            self.unpaired_responses += 1
+            last = self._last.get(node)
+            if last is not None and last.status == 'abort' and last.by_client and not _answers(last, data):
+                self._invalid(t, node, last)  # more garbage after the master gave up (a late answer is none)
+            return
         if txn.block and b0 != 0x80:  # sub-block segments (0x81..0xFF with the last) are no abort
+            txn.t_response = t
             self._block_response(txn, data)
-        elif scs == 4:
+            return
+        if scs != 4 and (txn.answered or not self._fits(txn, scs)):
+            if not (txn.answered and _answers(txn, data)):  # a repeated well-formed answer is no garbage
+                self._invalid(t, node, txn)
+            return
+        txn.t_response = t
+        txn.answered = True
+        if scs == 4:
             txn.abort = _u32(data, 4)
             self._close(txn, 'abort')
         elif scs == 3 or scs == 1:  # initiate download response
@@ -121,6 +154,37 @@ class SdoLog:
             txn.data += data[1:8 - n]
             if b0 & 0x01:
                 self._close(txn, 'ok')
+
+    @staticmethod
+    def _fits(txn: SdoTransaction, scs: int) -> bool:
+        """Is a server command specifier the answer to the client's last frame of ``txn``?"""
+        if txn.write:  # initiate download response, then download segment responses
+            return scs == 3 if txn.t_response is None else scs == 1
+        return scs == 2 if txn.t_response is None else scs == 0  # initiate upload response, then segments
+
+    def _invalid(self, t: float, node: int, txn: SdoTransaction | None) -> None:
+        """A server frame that answers nothing: counted into the burst it belongs to."""
+        if txn is not None:
+            txn.invalid += 1
+        bursts = self.invalid.setdefault(node, [])
+        if bursts and bursts[-1][1] is txn:
+            start, _txn, count = bursts[-1]
+            bursts[-1] = (start, txn, count + 1)
+        else:
+            bursts.append((t, txn, 1))
+
+    def _server_abort_after(self, t: float, node: int, data: bytes | bytearray) -> None:
+        """A server abort with no transfer open (the master had aborted it already): kept, not dropped."""
+        index, subindex, code = data[1] | data[2] << 8, data[3], _u32(data, 4)
+        last = self._last.get(node)
+        write = last.write if last is not None and (last.index, last.subindex) == (index, subindex) else False
+        txn = SdoTransaction(node, index, subindex, write, t, t_response=t, abort=code)
+        if last is not None and (last.index, last.subindex) == (index, subindex):
+            txn.t_request = last.t_request
+            txn.data = last.data
+        self.transactions.append(txn)
+        self._last[node] = txn
+        self._close(txn, 'abort', late=True)
 
     # -- block transfers (CiA 301 §7.2.4.3.9-16): sub-block segments carry a sequence number --
     def _block_request(self, txn: SdoTransaction, t: float, data: bytes | bytearray) -> bool:
@@ -169,32 +233,60 @@ class SdoLog:
             txn.phase = 'end-resp'
 
     # -- results ---------------------------------------------------------------------------
-    def _close(self, txn: SdoTransaction, status: str, by_client: bool = False) -> None:
+    def _close(self, txn: SdoTransaction, status: str, by_client: bool = False, late: bool = False) -> None:
         txn.status = status
-        self._open.pop(txn.node, None)
+        if self._open.get(txn.node) is txn:
+            del self._open[txn.node]
         ctx = self.ctx
         label = ctx_label(ctx, txn)
+        access = 'write' if txn.write else 'read'
         if status == 'ok':
             self.on_done(txn)
         elif status == 'abort' and txn.abort is not None:
             code = txn.abort
-            who = 'the master aborted' if by_client else 'aborted'
+            who = ('the master aborted' if by_client else
+                   'aborted, after the master had given up,' if late else 'aborted')
             value = f' of {format_value(txn)}' if txn.write and txn.data else ''
-            severity = (Severity.ERROR if txn.write else
-                        Severity.INFO if code in _PROBES else Severity.WARNING)
-            ctx.add(severity, txn.t_request, txn.node,
-                    f'SDO {label} {"write" if txn.write else "read"}{value} {who} 0x{code:08X} ({abort_text(code)})',
-                    abort_cause(code), 'sdo-abort', slot=axis_slot(txn.index))
+            mandatory = MANDATORY.get((txn.index, txn.subindex))
+            cause = abort_cause(code)
+            if by_client and code == TIMEOUT and txn.invalid:
+                cause = (f'the server did answer, with {txn.invalid} invalid frame(s) that fit no request: '
+                         'its SDO server (firmware) is broken, or two nodes share its COB-ID')
+            if mandatory and not txn.write and code in _PROBES:
+                severity = Severity.ERROR if mandatory == 'CiA 402' else Severity.WARNING
+                cause = (f'{label} is mandatory ({mandatory}): a master that reads it at boot (lely, ros2_canopen) '
+                         'stops configuring the node (a wrong node id, a device other than the config says, or a '
+                         'firmware without it)')
+            else:
+                severity = Severity.ERROR if txn.write else Severity.INFO if code in _PROBES else Severity.WARNING
+            ctx.add(severity, txn.t_request, txn.node, f'SDO {label} {access}{value} {who} 0x{code:08X} '
+                    f'({abort_text(code)})', cause, 'sdo-abort', slot=axis_slot(txn.index),
+                    short=f'node {txn.node} lacks mandatory {label}'
+                    if mandatory and not txn.write and code in _PROBES else
+                    f'SDO {access} of {label} on node {txn.node} aborted 0x{code:08X}')
         elif status == 'no response':
-            ctx.add(Severity.WARNING, txn.t_request, txn.node,
-                    f'SDO {label} {"write" if txn.write else "read"} got no response',
+            ctx.add(Severity.WARNING, txn.t_request, txn.node, f'SDO {label} {access} got no response',
                     'the node is off the bus, not in a state that serves SDO, or another request overtook it',
                     'sdo-timeout', slot=axis_slot(txn.index))
 
     def finish(self, end: float) -> None:
         for txn in list(self._open.values()):
-            if end - txn.t_request >= NO_ANSWER_S:
+            if self.ctx.timing and end - txn.t_request >= NO_ANSWER_S:
                 self._close(txn, 'no response')
+        for node, bursts in sorted(self.invalid.items()):
+            for start, burst_txn, count in bursts:
+                during = '' if burst_txn is None else \
+                    f' during the {"download" if burst_txn.write else "upload"} of {ctx_label(self.ctx, burst_txn)}'
+                self.ctx.add(Severity.ERROR, start, node,
+                             f'SDO server sent {count} invalid frame(s) on 0x{0x580 + node:03X}{during}: '
+                             'responses that fit no request (a burst)',
+                             'the node\'s SDO server (firmware) is broken, or another node sends on its COB-ID',
+                             'sdo-invalid', short=f'SDO server of node {node} sent invalid frames')
+
+
+def _answers(txn: SdoTransaction, data: bytes | bytearray) -> bool:
+    """Is a server frame a well-formed initiate response naming the transaction's object?"""
+    return len(data) >= 4 and data[0] >> 5 in (2, 3) and (data[1] | data[2] << 8, data[3]) == (txn.index, txn.subindex)
 
 
 def _trim(txn: SdoTransaction, unused: int) -> None:
