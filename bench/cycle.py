@@ -140,7 +140,7 @@ def _ratio(figure: float, floor: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    logging.disable(logging.WARNING)  # the master's own reports of the faults the cases inject
+    logging.disable(logging.CRITICAL)  # the master's own reports of the faults the cases inject
     parser = argparse.ArgumentParser(prog='python -m bench cycle', description=__doc__.split('\n\n')[0])
     parser.add_argument('--cases', nargs='+', choices=CASES, default=list(CASES))
     parser.add_argument('--seconds', type=float, default=3.0, help='measurement window per case (default 3)')

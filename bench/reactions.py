@@ -193,7 +193,7 @@ def run(case: str, repeat: int, work: Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    logging.disable(logging.WARNING)  # the master's own reports of the faults the cases inject
+    logging.disable(logging.CRITICAL)  # the master's own reports of the faults the cases inject
     parser = argparse.ArgumentParser(prog='python -m bench reactions', description=__doc__.split('\n\n')[0])
     parser.add_argument('--cases', nargs='+', choices=CASES, default=list(CASES))
     parser.add_argument('--repeat', type=int, default=5, help='runs per case (default 5)')

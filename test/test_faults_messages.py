@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 
 import pytest
+import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
@@ -18,6 +19,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from bustools import demo_data
 from drive_bridge.master.events import EventKind
 from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, MalformedMessage, check_trajectory_bytes, trajectory_counts
 from drive_bridge.ros.node import BusNode
@@ -32,7 +34,12 @@ JOINTS = ['base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint']
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    node = demo_bridge(ros)
+    # heartbeat timeouts of 1 s, not 300 ms (multiplier 10, as the README example's test): a busy
+    # machine stalls this process 0.4 s now and then; the bug these tests guard against stalled
+    # it 5 s and lost node 4
+    data = demo_data()
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
+    node = demo_bridge(ros, config_yaml=yaml.safe_dump(data, sort_keys=False))
     yield node
     node.close()
 
