@@ -15,6 +15,7 @@ from drive_bridge_interfaces.msg import CanFrame
 
 import ros2cli
 from rostools import RosHarness, interrupt, wait_for
+from shelltools import from_background_shell
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -31,20 +32,16 @@ def test_second_bootstrap_is_a_fast_no_op() -> None:
     assert elapsed < 30, f'bootstrap took {elapsed:.1f} s with everything in place'
 
 
-def _as_background_shell() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 @pytest.mark.parametrize('signum, started', [(signal.SIGINT, 'from a terminal'),
                                              (signal.SIGINT, 'by a background shell'),
                                              (signal.SIGTERM, 'by a background shell')],
                          ids=['SIGINT', 'SIGINT, inherited ignored', 'SIGTERM, SIGINT inherited ignored'])
 def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, signum: int, started: str) -> None:
     """Stopped by the signal whatever it inherited: a background shell starts it with SIGINT ignored."""
-    exe = Path(sys.prefix) / 'bin' / 'bridge'
-    proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, start_new_session=True,
-                            preexec_fn=_as_background_shell if started == 'by a background shell' else None)
+    exe = [str(Path(sys.prefix) / 'bin' / 'bridge')]
+    proc = subprocess.Popen(from_background_shell(exe) if started == 'by a background shell' else exe,
+                            env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
     try:
         frames: list[CanFrame] = []
         ros.node('watcher').create_subscription(CanFrame, '/drive_bridge/can_frames', frames.append, 100)

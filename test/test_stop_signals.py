@@ -3,7 +3,7 @@
 A process started in the background by a non-interactive shell inherits SIGINT as ignored;
 Python then installs no KeyboardInterrupt handler, and ``drive-bridge record`` recorded for
 ever (a fresh clone's ``make test`` hung here). Each process below starts as such a shell
-starts it: SIGINT ignored, stdin not a terminal.
+starts it: SIGINT ignored, stdin not a terminal (shelltools.from_background_shell).
 """
 from __future__ import annotations
 
@@ -25,14 +25,11 @@ from drive_bridge.bag.recover import summary_problem
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.stopsignals import StopSignal, exit_code, stop_on_signals
+from shelltools import from_background_shell
 from waittools import wait_for
 
 TOOL = Path(sys.executable).parent / 'drive-bridge'
 STOP_TIMEOUT = 30.0  # s from the signal to the exit: generous, a busy machine's start-up included
-
-
-def as_background_shell_starts_it() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @pytest.fixture
@@ -47,9 +44,9 @@ class Tool:
     its output is collected as it comes (progress lines end with a carriage return)."""
 
     def __init__(self, args: list[str], can_dir: Path) -> None:
-        self.process = subprocess.Popen([str(TOOL), *args], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                        stderr=subprocess.PIPE, preexec_fn=as_background_shell_starts_it,
-                                        env={**os.environ, 'DRIVE_BRIDGE_CAN_DIR': str(can_dir)})
+        env = {**os.environ, 'DRIVE_BRIDGE_CAN_DIR': str(can_dir)}
+        self.process = subprocess.Popen(from_background_shell([str(TOOL), *args]), stdout=subprocess.PIPE,
+                                        stderr=subprocess.PIPE, env=env)
         self.can_dir = can_dir
         self.out, self.err = bytearray(), bytearray()
         self._readers = [threading.Thread(target=self._read, args=(stream, into), daemon=True)
