@@ -47,6 +47,7 @@ def messages_on_disk(split: Path) -> int:
     return count
 
 
+@pytest.mark.slow
 @pytest.mark.ros  # the bridge (rclpy, simulated drives) in a process of its own
 @pytest.mark.sim
 def test_killed_bridge_leaves_closed_splits_and_recover_reads_the_open_one(tmp_path: Path) -> None:

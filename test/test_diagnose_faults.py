@@ -23,6 +23,7 @@ from timingtools import BUSY_SLACK
 # s between the injection (test thread) and the frame that shows it: a heartbeat period, and
 # what a busy machine holds the threads (below the 1 s between the injections)
 TOLERANCE = 0.5
+pytestmark = pytest.mark.slow  # a recording of 8 s of injected faults, then each diagnosis
 
 
 @pytest.fixture(scope='module')

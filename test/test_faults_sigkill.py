@@ -26,7 +26,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from bustools import DEMO, demo_data
 from rostools import RosHarness, wait_for
 
-pytestmark = [pytest.mark.sim,
+pytestmark = [pytest.mark.sim, pytest.mark.slow,
               pytest.mark.skipif(importlib.util.find_spec('drive_bridge.cli.sim') is None,
                                  reason='needs drive-bridge sim and the local transport (branch perf)')]
 REPO = Path(__file__).resolve().parent.parent

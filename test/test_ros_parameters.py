@@ -112,6 +112,7 @@ def test_start_time_parameters_are_refused_while_running(running: tuple[RosHarne
     assert node.master.config.master.sync_period == 0.004
 
 
+@pytest.mark.slow
 def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness, BusNode, ParameterClient]) -> None:
     ros, node, client = running
     listener = ros.node('params_listener')

@@ -129,6 +129,7 @@ def test_readme_trajectory_example_moves_the_demo(ros: RosHarness, tmp_path: Pat
     assert arrived, f'the README example did not move the demo; the bridge printed: {out[-2000:]}'
 
 
+@pytest.mark.slow
 def test_readme_your_drive_in_ten_lines(tmp_path: Path) -> None:
     """The README's "your drive in ten lines" as a new user runs it: its YAML as my_bus.yaml,
     its two commands (drive-bridge sim, then the bridge, over the local transport), its Python
