@@ -9,7 +9,6 @@ rosbags and python-can are imported when a recording needs them, not to read a c
 """
 from __future__ import annotations
 
-import logging
 import struct
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -225,22 +224,29 @@ def _bag_raw(path: Path) -> Iterator[tuple[RawFrame, str, int]]:
         reader.close()
 
 
-class _Skips(logging.Handler):
-    """python-can's text readers log a line they cannot parse and go on: collect those."""
+def _skips() -> Any:
+    """A logging handler that collects what python-can's text readers log of a line they cannot
+    parse (and go on): logging is imported with python-can, not to read candump text."""
+    import logging
 
-    def __init__(self) -> None:
-        super().__init__(logging.WARNING)
-        self.messages: list[str] = []
+    class Skips(logging.Handler):
+        def __init__(self) -> None:
+            super().__init__(logging.WARNING)
+            self.messages: list[str] = []
 
-    def emit(self, record: logging.LogRecord) -> None:
-        self.messages.append(record.getMessage())
+        def emit(self, record: logging.LogRecord) -> None:
+            self.messages.append(record.getMessage())
+
+    return Skips()
 
 
 def _trace_frames(path: Path, fmt: str, strict: bool, skipped: list[str]) -> Iterator[can.Message]:
     import can
 
+    import logging
+
     count = 0
-    skips = _Skips()
+    skips = _skips()
     logger = logging.getLogger('can.io')  # the readers' loggers only, not the rest of python-can
     logger.addHandler(skips)
     reader: Any = None
