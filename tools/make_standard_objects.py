@@ -27,7 +27,6 @@ VARIABLES: index -> (name, signed); RECORDS / ARRAYS: index -> (name, {{subindex
 (an array's undefined subindex is named after its subindex 1, as canopen does);
 ABORT_TEXTS: abort code -> CiA 301 text."""
 from __future__ import annotations
-
 '''
 
 

@@ -241,9 +241,9 @@ def _skips() -> Any:
 
 
 def _trace_frames(path: Path, fmt: str, strict: bool, skipped: list[str]) -> Iterator[can.Message]:
-    import can
-
     import logging
+
+    import can
 
     count = 0
     skips = _skips()

@@ -6,7 +6,6 @@ VARIABLES: index -> (name, signed); RECORDS / ARRAYS: index -> (name, {subindex:
 ABORT_TEXTS: abort code -> CiA 301 text."""
 from __future__ import annotations
 
-
 VARIABLES: dict[int, tuple[str, bool]] = {
     0x1000: ('Device type', False),
     0x1001: ('Error register', False),
