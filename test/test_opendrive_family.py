@@ -376,6 +376,47 @@ def test_velocity_reaches_the_motor_in_rpm_of_n_max() -> None:
         assert axis.stream_strategy() == 'cyclic-velocity' and axis.command_field() == 'velocity'
 
 
+@pytest.mark.parametrize('speed_word, torque_word', [(0x0003, 0x0003), (0x00D1, 0x0002)])
+def test_feedback_scaled_by_the_representation_words(speed_word: int, torque_word: int) -> None:
+    """The bridge reads Tab_exp_osc 0x2004 at boot (appendix §2.6.5) and scales the velocity and
+    torque elements by their words: with 0x0003 (% of 32767) or 0x00D1 (direct / 2^13) n_MAX is
+    not 16384, and the joint velocity still matches the motor's."""
+    data = with_sim(example(), actual_speed_representation=speed_word, actual_torque_representation=torque_word)
+    with bridge(data) as (_master, sim, sniffer, axis):
+        drive = sim.drive(NODE)
+        uploads = [f for f in sniffer.frames(SDO_RX) if f.data[:4] == bytes([0x40, 0x04, 0x20, 0x00])]
+        assert len(uploads) == 1, 'one upload of 0x2004 at boot'
+        assert axis.units.scaling.velocity_word == speed_word and axis.units.scaling.torque_word == torque_word
+        enabled_at(axis, velocity=100.0)
+        eventually(lambda: abs(drive.speed_rpm - 954.9) < 1.0, 3.0, 'the motor at 954.9 rpm')
+        eventually(lambda: axis.feedback()[2] == pytest.approx(drive.speed_rpm * 2 * math.pi / 60, rel=0.01), 1.0,
+                   'velocity feedback at the motor speed')
+        assert axis.feedback()[3] == pytest.approx(drive.torque_nm, abs=0.05)
+
+
+def test_a_representation_word_the_bridge_cannot_read_fails_the_boot() -> None:
+    """A word outside the appendix's three forms (0x0002, 0x0003, 0x00n1) fails the boot step,
+    naming the element, the table and the word."""
+    family = get_family('opendrive')
+    config = config_from(example()).nodes[0]
+    table = struct.pack('<64H', 0x0010, 0x0002, *([0] * 62))
+
+    class Port:
+        node_id, name = config.node_id, config.name
+
+        def __init__(self) -> None:
+            self.config = config
+
+        def sdo_read_raw(self, index: int, subindex: int = 0) -> bytes:
+            assert (index, subindex) == (0x2004, 0)
+            return table
+
+    step = dict(family.boot_steps_before(Port()))['representation words 0x2003 / 0x2004']  # type: ignore[arg-type]
+    with pytest.raises(Exception, match=r'actual_velocity 0x2012:01 \(tab_osc\[0\]\): representation word '
+                                        r'0x0010 is not one the appendix shows'):
+        step(Port())  # type: ignore[arg-type]
+
+
 def test_speed_increment_reference_and_a_position_quantity() -> None:
     data = with_sim(example(), speed_reference='0x201D', position_element=2)
     axis_data(data)['drive'].update(speed_reference=0x201D,

@@ -9,76 +9,39 @@ from __future__ import annotations
 import struct
 import time
 from collections.abc import Iterator
-from typing import Any
 
-import canopen
 import pytest
-from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.families import DATA_DIR
 from drive_bridge.sim import SimOpenDrive, simulator_for
 from drive_bridge.sim.opendrive.parameters import decode_format
 from drive_bridge.sim.testing import SimBench, SyncLoop, wait_until
-
-EDS = DATA_DIR / 'opendrive.eds'
-NODE = 5
-GUARD, EMCY, SDO_RX, SDO_TX = 0x700 + NODE, 0x80 + NODE, 0x600 + NODE, 0x580 + NODE
-TPDO1, RPDO1 = 0x180 + NODE, 0x200 + NODE
-PRE_OPERATIONAL, OPERATIONAL = 0x7F, 0x05
-HIGH = 32767
+from opendrivetools import (
+    EMCY,
+    GUARD,
+    HIGH,
+    NODE,
+    OPERATIONAL,
+    PRE_OPERATIONAL,
+    RPDO1,
+    SDO_RX,
+    SDO_TX,
+    TPDO1,
+    abort_code,
+    add,
+    emcy_frames,
+    power_cycle,
+    read,
+    rtr,
+    set_param,
+    start,
+    write,
+)
 
 
 @pytest.fixture
 def bench() -> Iterator[SimBench]:
     with SimBench() as b:
         yield b
-
-
-def add(bench: SimBench, **options: Any) -> tuple[SimOpenDrive, canopen.RemoteNode]:
-    sim, node = bench.add_drive(NODE, eds=EDS, family='opendrive', options=options)
-    assert isinstance(sim, SimOpenDrive)
-    return sim, node
-
-
-def write(node: canopen.RemoteNode, index: int, sub: int, fmt: str, value: int) -> None:
-    node.sdo.download(index, sub, struct.pack('<' + fmt, value))
-
-
-def read(node: canopen.RemoteNode, index: int, sub: int, fmt: str) -> int:
-    return struct.unpack('<' + fmt, node.sdo.upload(index, sub))[0]
-
-
-def abort_code(call: Any) -> int:
-    with pytest.raises(SdoAbortedError) as info:
-        call()
-    return info.value.code
-
-
-def start(bench: SimBench, sim: SimOpenDrive) -> None:
-    bench.nmt(0x01, NODE)
-    wait_until(lambda: sim.nmt_state == 'OPERATIONAL', 0.5, 'OPERATIONAL')
-
-
-def rtr(bench: SimBench, cob: int = GUARD) -> bytes:
-    t = time.monotonic()
-    bench.master.send_message(cob, b'', remote=True)
-    return bench.log.wait_for(cob, since=t, timeout=0.5)[0].data
-
-
-def emcy_frames(bench: SimBench, since: float = 0.0) -> list[bytes]:
-    return [f.data for f in bench.log.frames(EMCY, since=since)]
-
-
-def set_param(node: canopen.RemoteNode, letter: str, number: int, value: int) -> None:
-    write(node, 0x200D if letter == 'P' else 0x200E, number + 1, 'h', value if value < 0x8000 else value - 0x10000)
-
-
-def power_cycle(bench: SimBench, sim: SimOpenDrive) -> None:
-    sim.power_off()
-    t = time.monotonic()
-    sim.power_on()
-    bench.log.wait_for(GUARD, since=t)
-    wait_until(lambda: sim.nmt_state == 'PRE-OPERATIONAL', 0.5)
 
 
 # ---- communication ---------------------------------------------------------------------------------
@@ -275,7 +238,7 @@ def test_format_tables_are_domains_read_by_segmented_upload(bench: SimBench) -> 
     assert p1 * 100 / words[7] == pytest.approx(100.0)  # 4095 / 4095 base -> 100 %
     assert read(node, 0x200D, 3, 'h') / words[11] == pytest.approx(40.0)  # 400 / 10
     connections = struct.unpack('<400H', node.sdo.upload(0x2002, 0))
-    assert connections[4:8] == (0x2020, 0, 31, 1)  # C1: a Reserved connection, base 1
+    assert connections[4:8] == (0x2020, 0, 63, 1)  # C1: a Reserved connection, base 1, functions I00..I63
     extra = struct.unpack('<500H', node.sdo.upload(0x2026, 0))
     assert extra[:5] == (0x1131, 0, 8190, 4095, 4095)
     assert struct.unpack('<64H', node.sdo.upload(0x2003, 0))[:2] == (0x00E1, 0x0002)

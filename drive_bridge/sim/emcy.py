@@ -86,11 +86,16 @@ class EmcyProducer:
         signalled (e.g. each axis' fault after one heartbeat-loss EMCY).
         """
         if not transient:
-            self._active[(source, code)] = register_bits(code)
+            self._active[(source, code)] = self.register_bits(code)
         if not emit:
             return
         self._push_history(code)
-        self._emit(code, self.register | (0 if not transient else register_bits(code)), manufacturer)
+        self._emit(code, self.register | (0 if not transient else self.register_bits(code)), manufacturer)
+
+    def register_bits(self, code: int) -> int:
+        """Hook: the error register bits an error ``code`` sets (default: CiA 301's, generic bit
+        and class bit)."""
+        return register_bits(code)
 
     def clear(self, source: str | None = None) -> None:
         """Forget the errors of ``source`` (all if None); EMCY 0x0000 once none is left."""

@@ -13,7 +13,9 @@ tools/make_opendrive_eds.py):
   RPDO types 0..240 apply at the next SYNC, 254 at once (255 is not listed); the RPDO
   communication records manage sub-indices 1 and 2 only (the bridge writes nothing else);
 - boot: fieldbus RUN low and references 0 before anything else (RUN starts high at power-on),
-  C52 = 1 checked (else the drive ignores every CAN reference), the life time clamp;
+  C52 = 1 checked (else the drive ignores every CAN reference), the representation words of the
+  velocity and torque feedback read (0x2004 / 0x2003: the feedback's scale, not a fixed 16384 =
+  n_MAX; ``representation``), the life time clamp;
 - EMCY 0x10xx = an alarm (bytes 3-4 the alarm word), 0x00xx = alarms reset;
 - parameters P/C by number with their format words (``parameters``).
 
@@ -45,10 +47,11 @@ from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.interface import DATA_DIR, DriveFamily, Liveness
-from drive_bridge.families.opendrive import alarms, objects as od
+from drive_bridge.families.opendrive import alarms, objects as od, representation
 from drive_bridge.families.opendrive.driver import RunLogicDriver
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
 from drive_bridge.families.opendrive.parameters import OpenDriveParameters
+from drive_bridge.families.opendrive.units import Units
 from drive_bridge.families.parameters import ParameterError, ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
@@ -149,7 +152,42 @@ class OpenDrive(DriveFamily):
         return DriveOptions.of(node.config.axes[0].drive)
 
     def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        return (('RUN low, references 0', self._stop_drive), ('C52 = 1 (CAN references)', self._check_c52))
+        return (('RUN low, references 0', self._stop_drive), ('C52 = 1 (CAN references)', self._check_c52),
+                ('representation words 0x2003 / 0x2004', self._read_representations))
+
+    def _read_representations(self, node: NodePort) -> None:
+        """The velocity and torque feedback scaled by their representation words (module
+        representation): one upload of 0x2004 (Tab_osc) / 0x2003 (Tab_int) per table used."""
+        options = self._options(node)
+        tables: dict[int, tuple[int, ...]] = {}
+        found: dict[str, tuple[int, float]] = {}
+        for name, quantity in (('actual_velocity', options.actual_velocity), ('actual_torque', options.actual_torque)):
+            if quantity is None:
+                continue
+            index = representation.FORMATS_OF[quantity.index]
+            if index not in tables:
+                try:
+                    tables[index] = representation.words(node.sdo_read_raw(index, 0))
+                except ValueError as error:
+                    raise OpenDriveBootError(f'0x{index:04X}: {error}') from None
+            word = tables[index][quantity.element]
+            try:
+                found[name] = word, representation.full_scale(word)
+            except ValueError as error:
+                raise OpenDriveBootError(f'{name} {quantity.describe(options.array_offset)}: {error} (0x{index:04X} '
+                                         f'word {quantity.element}); the bridge cannot scale it') from None
+        velocity = found.get('actual_velocity')
+        torque = found.get('actual_torque')
+        scaling = representation.Scaling(
+            velocity[1] if velocity else representation.Scaling.velocity_full_scale,
+            torque[1] if torque else representation.Scaling.torque_full_scale,
+            velocity[0] if velocity else None, torque[0] if torque else None)
+        log.info('node %d (%s): feedback scaling from the representation words: velocity %s, torque %s',
+                 node.node_id, node.name, *(f'0x{w[0]:04X} ({w[1]:g} = 100 %)' if w else 'none'
+                                            for w in (velocity, torque)))
+        driver = self._drivers.get(node.node_id)
+        if driver is not None:
+            driver.units = Units(options, scaling)
 
     def boot_steps_after(self, node: NodePort) -> Sequence[BootStep]:
         return (('life time within 32767/f_pwm', self._clamp_life_time),

@@ -9,13 +9,14 @@ default; a missing one is an error naming the key and what it means. The shipped
 key                        required  meaning
 =========================  ========  =====================================================
 ``n_max_rpm``              yes       the drive's set maximum speed n_MAX (rpm): 16384 in
-                                     0x201A and in the velocity quantity = n_MAX
+                                     0x201A = n_MAX
 ``rated_torque``           yes       motor nominal torque T_nom (N·m): 4095 = T_nom
 ``pole_pairs``             yes       motor pole pairs (0x201D: 65536 x pole pairs per rev)
 ``pwm_frequency``          yes       f_pwm (Hz): 0x201D's time base; life time <= 32767/f_pwm s
 ``speed_reference``        yes       0x201A (% of n_MAX) or 0x201D (angle per PWM period)
-``actual_velocity``        yes       ``{table: tab_osc | tab_int, element: 0..63}``, 16384 = n_MAX
-``actual_torque``          no        the same form, 4095 = T_nom (absent: no effort feedback)
+``actual_velocity``        yes       ``{table: tab_osc | tab_int, element: 0..63}``, scaled by
+                                     its word in 0x2004 / 0x2003 (100 % = n_MAX)
+``actual_torque``          no        the same form, 100 % = T_nom (absent: no effort feedback)
 ``position``               yes       ``none`` (integrated from velocity, marked estimated) or
                                      ``{table, element, counts_per_revolution}`` (INT16, wraps)
 ``alarm_reset_function``   yes       number (1..31) of the standard logic input function that
@@ -102,7 +103,7 @@ REQUIRED: dict[str, str] = {
     'speed_reference': 'the speed reference object: 0x201A (16384 = n_MAX) or 0x201D (electrical '
                        'angle per PWM period)',
     'actual_velocity': 'where the actual speed is: {table: tab_osc or tab_int, element: 0..63} '
-                       '(16384 = n_MAX)',
+                       '(scaled by its representation word in 0x2004 / 0x2003: 100 % = n_MAX)',
     'position': "where a position is: none (integrated from the velocity and marked estimated) or "
                 "{table: tab_osc or tab_int, element: 0..63, counts_per_revolution: 65536}",
     'alarm_reset_function': 'the number (1..31) of the standard logic input function that resets '
@@ -111,7 +112,7 @@ REQUIRED: dict[str, str] = {
                     'array_offset (0 or 1)',
 }
 OPTIONAL: dict[str, str] = {
-    'actual_torque': '{table: tab_osc or tab_int, element: 0..63} (4095 = T_nom)',
+    'actual_torque': '{table: tab_osc or tab_int, element: 0..63} (its representation word: 100 % = T_nom)',
     'gear_ratio': 'motor revolutions per joint revolution (> 0, default 1)',
     'direction': '1 or -1 (default 1)',
 }

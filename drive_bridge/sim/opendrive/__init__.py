@@ -4,17 +4,21 @@ CiA 402 profile, after the drive's CANopen appendix as summarised in shared/driv
 (tools/make_opendrive_eds.py, whose docstring lists the readings of the object list).
 
 Modules: objects (indices, codes, abort choices), parameters (the P / C table and the format
-word layout), emcy (EMCY and 0x1003), pdo (PDO rules), motor (the motor model), drive (the
-node: :class:`SimOpenDrive`, registered as the ``opendrive`` simulator on import).
+word layout), emcy (EMCY and 0x1003), pdo (PDO rules), motor (the motor model), logic (the
+logic input functions and their channels), quantities (actual values and their representation
+words), options, drive (the node: :class:`SimOpenDrive`, registered as the ``opendrive``
+simulator on import).
 
 Communication [2]:
 
 - No heartbeat objects (option ``heartbeat`` false). Node guarding (RTR on 0x700 + id, toggle)
   in every booted state; life guarding only while 0x100C x 0x100D != 0, armed by the first
-  RTR, the life time clamped to 32767 / ``pwm_frequency`` s (4.096 s at 8 kHz). On a loss the
-  drive does nothing (``life_guarding_reaction: none``, the appendix's default firmware), or,
-  with ``stop`` (a firmware option), the RUN function is forced low while the RTRs stay away.
-  No EMCY either way (the drive has no code for it).
+  RTR, the life time clamped to 32767 / ``pwm_frequency`` s (4.096 s at 8 kHz). The reaction
+  to a loss is "decided when the firmware is compiled; by default no action" (§2.4): the option
+  ``life_guarding_reaction`` is the firmware: ``none`` (default: the drive keeps running on its
+  last RUN and references, no EMCY), ``stop`` (RUN forced low while the RTRs stay away, no
+  EMCY) or ``alarm`` (alarm A``guarding_alarm``, default A15, trips: latched, the drive stops,
+  EMCY 0x1000 if P163 enables it; an alarm reset clears it once the RTRs are back).
 - SDO: an expedited download without the size indicator (command 0x22 / 0x26 / 0x2A / 0x2E)
   is refused with 0x05040001 (the appendix gives no code). DOMAIN tables are read by
   segmented upload (block upload falls back to segmented, block download is refused: canopen's
@@ -43,10 +47,12 @@ Drive [3]:
   life guarding); every other standard function is the OR of the channels. Fieldbus channel:
   0x2016[k] (0 / 32767; any non-zero write is high) and 0x201F bit k are one state; 0x2016[0]
   is high at power-on / reset node. Read-back 0x2010[k] / 0x2021 bit k. Terminal channel: 8
-  inputs (0x2013), input n assigned to the function in Cn (C1 = 0 RUN, C2 = 5 alarm reset, ...);
-  a function without a terminal counts as high in the RUN AND and low in the OR. Terminal 1
-  starts high (``terminal_run``). Serial channel: RUN high, the rest low. Application functions
-  0x2020 read back in 0x2022 (no terminal assignment modelled).
+  inputs (0x2013), input n assigned to the function in Cn (0..63: I00..I28 standard, I29..I63
+  application; C1 = 0 RUN, C2 = 5 alarm reset, ...); a function without a terminal counts as
+  high in the RUN AND and low in the OR. Terminal 1 starts high (``terminal_run``). Serial
+  channel: RUN high, the rest low. Application functions I29..I60: 0x2020 bit b forces I(29 +
+  b), read back in 0x2022; where a terminal controls one, its physical state wins (module
+  logic).
 - The drive runs while RUN is high and no alarm is latched. References only with C52 = 1
   (factory value: option ``c52``): speed 0x201A (16384 = n_MAX) or 0x201D (electrical pulses per
   PWM period: rpm = theta x f_pwm x 60 / (65536 x pole pairs)), chosen by ``speed_reference``;
@@ -55,12 +61,13 @@ Drive [3]:
 - Motor (motor module): first-order lag to the speed reference (``speed_time_constant``),
   torque-limited; coasting down (``coast_time_constant``) while the drive does not run; the
   mechanical angle integrates the speed.
-- Actual values: Tab_osc 0x2012[k] and Tab_int 0x200F[k] (the same quantities in both):
-  ``actual_speed_element`` (16384 = n_MAX, format word 0x00E1 = direct / 2^14),
-  ``actual_torque_element`` (4095 = T_nom, 0x0002 = % of 4095), ``position_element`` (65536
-  counts per revolution, INT16 wrapping, 0x0001 = direct; none by default); formats in
-  0x2004[k] / 0x2003[k] (0 for the other elements). Array element k is at sub-index
-  k + ``array_offset``.
+- Actual values (module quantities): Tab_osc 0x2012[k] and Tab_int 0x200F[k] (the same
+  quantities in both): ``actual_speed_element`` (100 % = n_MAX) in its representation word
+  ``actual_speed_representation`` (default 0x00E1 = direct / 2^14: 16384 = n_MAX),
+  ``actual_torque_element`` (100 % = T_nom) in ``actual_torque_representation`` (default 0x0002
+  = % of 4095), ``position_element`` (65536 counts per revolution, INT16 wrapping, 0x0001 =
+  direct; none by default); the words in 0x2004[k] / 0x2003[k] (0 for the other elements).
+  Array element k is at sub-index k + ``array_offset``.
 - Alarms A0..A15 (0x2018): :meth:`SimOpenDrive.inject_alarm` / ``clear_alarm_cause``; a rising
   edge of logic function ``alarm_reset_function`` (default 5: 0x201F bit 5, 0x2016[5] or the
   terminal assigned by C2) clears those whose cause is gone. Enable mask 0x2019 = P163.

@@ -6,7 +6,6 @@ import logging
 import math
 import struct
 from collections.abc import Callable, Mapping
-from dataclasses import replace
 from typing import Any
 
 import can
@@ -15,7 +14,9 @@ from canopen.sdo.exceptions import SdoAbortedError
 from drive_bridge.model import NodeConfig
 from drive_bridge.sim.opendrive import objects as o
 from drive_bridge.sim.opendrive.emcy import OpenDriveEmcy
+from drive_bridge.sim.opendrive.logic import TERMINAL_CONNECTIONS, LogicInputs
 from drive_bridge.sim.opendrive.motor import Motor
+from drive_bridge.sim.opendrive.options import OPENDRIVE_OPTIONS
 from drive_bridge.sim.opendrive.parameters import (
     C52,
     C63,
@@ -28,11 +29,10 @@ from drive_bridge.sim.opendrive.parameters import (
     PARAMETERS,
     RESERVED,
     TDE,
-    TERMINAL_CONNECTIONS,
     Parameter,
 )
 from drive_bridge.sim.opendrive.pdo import OpenDrivePdoEngine
-from drive_bridge.sim.options import SLAVE_OPTIONS, OptionSpec
+from drive_bridge.sim.opendrive.quantities import DIRECT, encode, full_scale
 from drive_bridge.sim.registry import register_simulator
 from drive_bridge.sim.slave import SimulatedSlave
 from drive_bridge.sim.store import key
@@ -42,62 +42,6 @@ logger = logging.getLogger(__name__)
 TWO_PI = 2.0 * math.pi
 COMMUNICATION_STATE = (0x1001, 0x1003, o.STORE_PARAMETERS, o.RESTORE_PARAMETERS)  # not saved by 0x1010
 
-OPENDRIVE_OPTIONS: dict[str, OptionSpec] = {
-    **SLAVE_OPTIONS,
-    'heartbeat': replace(SLAVE_OPTIONS['heartbeat'], default=False,
-                         doc='the OPEN drive has no heartbeat objects (0x1016/0x1017 are not in its EDS): '
-                             'supervised by node guarding'),
-    'life_guarding_reaction': replace(
-        SLAVE_OPTIONS['life_guarding_reaction'], default='none', choices=('none', 'stop'),
-        doc="what the drive does when the master's guarding RTRs stop for the life time 0x100C x 0x100D "
-            "(at most 32767 / pwm_frequency s): 'none' (the appendix's default firmware) or 'stop' (a "
-            "firmware option: the RUN function is forced low while the RTRs stay away; no EMCY)"),
-    'c52': OptionSpec('c52', int, 1, 'factory value of connection C52 (1: references 0x201A-0x201D from CAN)',
-                      0, 1),
-    'speed_reference': OptionSpec('speed_reference', str, '0x201A',
-                                  "the speed reference the drive is set up to use: '0x201A' (f_fieldbus, "
-                                  "16384 = n_MAX) or '0x201D' (theta_fieldbus, electrical pulses per PWM period)",
-                                  choices=('0x201A', '0x201D')),
-    'control_mode': OptionSpec('control_mode', str, 'speed',
-                               "'speed' (0x201A / 0x201D) or 'torque' (0x201C) control", choices=('speed', 'torque')),
-    'actual_speed_element': OptionSpec('actual_speed_element', int, 0,
-                                       'element k of Tab_osc 0x2012 / Tab_int 0x200F carrying the actual speed '
-                                       '(16384 = n_MAX, format word 0x00E1)', 0, 63),
-    'actual_torque_element': OptionSpec('actual_torque_element', int, 1,
-                                        'element carrying the actual torque (4095 = T_nom, format word 0x0002)',
-                                        0, 63),
-    'position_element': OptionSpec('position_element', int, -1,
-                                   'element carrying the mechanical angle in 65536 counts per revolution '
-                                   '(INT16, wraps every revolution; format word 0x0001); -1 or None: none',
-                                   -1, 63),
-    'array_offset': OptionSpec('array_offset', int, 1,
-                               'array element k sits at sub-index k + array_offset (0: element 0 unreachable)',
-                               0, 1),
-    'n_max_rpm': OptionSpec('n_max_rpm', float, 3000.0, 'n_MAX, the set maximum speed (16384 in 0x201A)',
-                            1.0, 1e6),
-    'rated_torque': OptionSpec('rated_torque', float, 10.0, 'T_nom in N m (4095 in 0x201B / 0x201C)', 1e-6, 1e6),
-    'pole_pairs': OptionSpec('pole_pairs', int, 4, 'motor pole pairs (0x201D)', 1, 100),
-    'pwm_frequency': OptionSpec('pwm_frequency', float, 8000.0,
-                                'f_pwm in Hz (0x201D; life time limit 32767 / f_pwm s)', 1.0, 1e6),
-    'alarm_reset_function': OptionSpec('alarm_reset_function', int, 5,
-                                       'standard logic input function that resets the alarms (rising edge)',
-                                       1, 31),
-    'terminal_run': OptionSpec('terminal_run', bool, True,
-                               'terminal input 1 (RUN, C1 = 0) is high at the start of the simulation'),
-    'speed_time_constant': OptionSpec('speed_time_constant', float, 0.05,
-                                      's, first-order lag of the speed behind its reference', 0.0, 100.0),
-    'coast_time_constant': OptionSpec('coast_time_constant', float, 1.0,
-                                      's, decay of the speed while the inverter is off', 0.0, 1000.0),
-    'inertia': OptionSpec('inertia', float, 0.002, 'kg m^2 at the motor shaft', 1e-9, None),
-    'friction': OptionSpec('friction', float, 0.001, 'viscous friction, N m s / rad', 0.0, None),
-    'reserved_key': OptionSpec('reserved_key', int, 1, 'value of P60 that unlocks the Reserved parameters',
-                               0, 65535),
-    'tde_key': OptionSpec('tde_key', int, 1, 'value of P99 that unlocks the TDE parameters', 0, 65535),
-}
-
-
-def _int16(value: float) -> int:
-    return max(-32768, min(32767, int(round(value))))
 
 
 def _words(words: list[int]) -> bytes:
@@ -142,14 +86,14 @@ class SimOpenDrive(SimulatedSlave):
         self._factory_con[C52] = opts['c52']
         self._nv_par, self._nv_con = list(self._factory_par), list(self._factory_con)  # non-volatile memory
         self.tab_par, self.tab_con = list(self._nv_par), list(self._nv_con)
-        self._terminals = 1 if opts['terminal_run'] else 0  # bit n-1: terminal input n
-        self._serial = 1 << o.RUN  # serial channel: RUN high, the rest low
-        self._fieldbus = 1 << o.RUN
-        self._application = 0
-        self._logic = 0
+        for name in ('actual_speed_representation', 'actual_torque_representation'):
+            try:
+                full_scale(opts[name])
+            except ValueError as error:
+                raise ValueError(f'simulation option {name!r} of node {node.name!r}: {error}') from None
+        self.logic = LogicInputs(lambda: self.tab_con, opts['terminal_run'])
         self._alarms = 0
         self._causes = 0  # alarms whose cause persists
-        self._guard_stop = False
         self._remote_cobs: set[int] = set()
         self._comm_keys = [k for k in self.store.variables
                            if 0x1000 <= k >> 8 <= 0x1FFF and k >> 8 not in COMMUNICATION_STATE]
@@ -158,7 +102,6 @@ class SimOpenDrive(SimulatedSlave):
         self._domains = self._build_domains()
         self.od_emcy.alarms = lambda: self._alarms
         self._register_objects()
-        self._logic = self._compute_logic()
 
     @property
     def od_emcy(self) -> OpenDriveEmcy:
@@ -196,7 +139,7 @@ class SimOpenDrive(SimulatedSlave):
     def run_input(self) -> bool:
         """Logic input function RUN (0x2010[0] / 0x2021 bit 0): terminal AND fieldbus AND serial."""
         with self._lock:
-            return bool(self._logic & 1)
+            return bool(self.logic.standard & 1)
 
     @property
     def running(self) -> bool:
@@ -208,15 +151,21 @@ class SimOpenDrive(SimulatedSlave):
     def run_channels(self) -> dict[str, bool]:
         """RUN of each channel (an unassigned terminal channel counts as high)."""
         with self._lock:
-            terminal = self._terminal_channel(o.RUN)
-            return {'terminal': terminal is None or terminal, 'fieldbus': bool(self._fieldbus & 1),
-                    'serial': bool(self._serial & 1)}
+            terminal = self.logic.terminal_channel(o.RUN)
+            return {'terminal': terminal is None or terminal, 'fieldbus': bool(self.logic.fieldbus & 1),
+                    'serial': bool(self.logic.serial & 1)}
 
     @property
     def logic_inputs(self) -> int:
         """The 32 standard logic input functions (0x2021)."""
         with self._lock:
-            return self._logic
+            return self.logic.standard
+
+    @property
+    def application_inputs(self) -> int:
+        """The application logic input functions I29..I60 (0x2022)."""
+        with self._lock:
+            return self.logic.application_state
 
     @property
     def alarms(self) -> int:
@@ -251,29 +200,24 @@ class SimOpenDrive(SimulatedSlave):
     # ---- test-side switches ------------------------------------------------------------------------
     def set_terminal(self, number: int, on: bool) -> None:
         """Terminal input ``number`` (1..8) high or low (0x2013 bit number - 1)."""
-        if not 1 <= number <= o.TERMINAL_INPUTS:
-            raise ValueError(f'terminal input {number}: the drive has 1..{o.TERMINAL_INPUTS}')
         with self._lock:
-            bit = 1 << (number - 1)
-            self._terminals = self._terminals | bit if on else self._terminals & ~bit
+            self.logic.set_terminal(number, on)
             self._logic_changed()
 
     def set_terminal_input(self, function: int, on: bool) -> None:
         """Every terminal input assigned to logic function ``function`` (C1..C8) high or low."""
         with self._lock:
-            numbers = [n for n in TERMINAL_CONNECTIONS if self.tab_con[n] == function]
+            numbers = self.logic.terminals_of(function)
             if not numbers:
                 raise ValueError(f'no terminal input is assigned to logic function {function} (C1..C8)')
             for n in numbers:
-                self.set_terminal(n, on)
+                self.logic.set_terminal(n, on)
+            self._logic_changed()
 
     def set_serial_input(self, function: int, on: bool) -> None:
         """The serial-line channel of standard logic function ``function`` (RUN starts high)."""
-        if not 0 <= function < o.STANDARD_FUNCTIONS:
-            raise ValueError(f'logic function {function}: the drive has 0..{o.STANDARD_FUNCTIONS - 1}')
         with self._lock:
-            bit = 1 << function
-            self._serial = self._serial | bit if on else self._serial & ~bit
+            self.logic.set_serial(function, on)
             self._logic_changed()
 
     def inject_alarm(self, number: int, persistent: bool = False) -> None:
@@ -338,17 +282,17 @@ class SimOpenDrive(SimulatedSlave):
                 elif index in (o.TAB_INT, o.TAB_OSC):
                     reg(index, sub, reader=lambda e=element: self._quantity(e))
                 elif index == o.TAB_INP_DIG:
-                    reg(index, sub, reader=lambda e=element: o.HIGH if self._logic >> e & 1 else 0)
+                    reg(index, sub, reader=lambda e=element: o.HIGH if self.logic.standard >> e & 1 else 0)
                 elif index == o.TAB_INP_DIG_FIELD:
-                    reg(index, sub, reader=lambda e=element: o.HIGH if self._fieldbus >> e & 1 else 0,
+                    reg(index, sub, reader=lambda e=element: o.HIGH if self.logic.fieldbus >> e & 1 else 0,
                         on_write=lambda v, e=element: self._set_fieldbus_function(e, v))
-        reg(o.INGRESSI, reader=lambda: self._terminals)
+        reg(o.INGRESSI, reader=lambda: self.logic.terminals)
         reg(o.ALLARMI, reader=lambda: self._alarms)
         reg(o.ABILITAZIONE_ALLARMI, reader=lambda: self.tab_par[P163] & 0xFFFF)
-        reg(o.INGRESSI_STANDARD_WR, reader=lambda: self._fieldbus, on_write=self._set_fieldbus)
-        reg(o.INGRESSI_APPL_WR, reader=lambda: self._application, on_write=self._set_application)
-        reg(o.INGRESSI_STANDARD_RD, reader=lambda: self._logic)
-        reg(o.INGRESSI_APPL_RD, reader=lambda: self._application)
+        reg(o.INGRESSI_STANDARD_WR, reader=lambda: self.logic.fieldbus, on_write=self._set_fieldbus)
+        reg(o.INGRESSI_APPL_WR, reader=lambda: self.logic.application, on_write=self._set_application)
+        reg(o.INGRESSI_STANDARD_RD, reader=lambda: self.logic.standard)
+        reg(o.INGRESSI_APPL_RD, reader=lambda: self.logic.application_state)
 
     def _build_domains(self) -> dict[int, bytes]:
         def table(entries: Mapping[int, Parameter], count: int) -> bytes:
@@ -369,21 +313,22 @@ class SimOpenDrive(SimulatedSlave):
                 o.TAB_MONITOR_A: monitor, o.TAB_MONITOR_B: monitor, o.TAB_FORMATI_EXTRA: _words(extra)}
 
     def _representation(self, element: int) -> int:
+        """The representation word of Tab_osc / Tab_int element ``element`` (module quantities)."""
         opts = self.options
         if element == opts['actual_speed_element']:
-            return o.REPR_SPEED
+            return int(opts['actual_speed_representation'])
         if element == opts['actual_torque_element']:
-            return o.REPR_PERCENT_4095
+            return int(opts['actual_torque_representation'])
         if element == opts['position_element']:
-            return o.REPR_DIRECT
+            return DIRECT
         return 0
 
     def _quantity(self, element: int) -> int:
         opts, motor = self.options, self.motor
         if element == opts['actual_speed_element']:
-            return _int16(motor.speed / self._n_max * o.SPEED_FULL_SCALE)
+            return encode(motor.speed / self._n_max, opts['actual_speed_representation'])
         if element == opts['actual_torque_element']:
-            return _int16(motor.torque / opts['rated_torque'] * o.TORQUE_FULL_SCALE)
+            return encode(motor.torque / opts['rated_torque'], opts['actual_torque_representation'])
         if element == opts['position_element']:
             counts = int(round(motor.angle / TWO_PI * o.PULSES_PER_REVOLUTION)) & 0xFFFF
             return counts - 0x10000 if counts >= 0x8000 else counts
@@ -451,48 +396,29 @@ class SimOpenDrive(SimulatedSlave):
                     self.store.defaults[k] = value
         super().power_on()
 
-    # ---- logic functions -------------------------------------------------------------------------
-    def _terminal_channel(self, function: int) -> bool | None:
-        """OR of the terminal inputs assigned to ``function`` (None: none assigned)."""
-        state: bool | None = None
-        for n in TERMINAL_CONNECTIONS:
-            if self.tab_con[n] == function:
-                state = bool(state) or bool(self._terminals >> (n - 1) & 1)
-        return state
-
-    def _compute_logic(self) -> int:
-        word = 0
-        for function in range(o.STANDARD_FUNCTIONS):
-            terminal = self._terminal_channel(function)
-            fieldbus, serial = bool(self._fieldbus >> function & 1), bool(self._serial >> function & 1)
-            if function == o.RUN:  # AND of the channels (an unassigned terminal channel is high)
-                on = (terminal is None or terminal) and fieldbus and serial and not self._guard_stop
-            else:  # OR of the channels
-                on = bool(terminal) or fieldbus or serial
-            word |= int(on) << function
-        return word
-
+    # ---- logic functions (module logic) ---------------------------------------------------------
     def _logic_changed(self) -> None:
-        old, self._logic = self._logic, self._compute_logic()
+        old = self.logic.standard
+        self.logic.compute()
         bit = 1 << self.options['alarm_reset_function']
-        if self._logic & bit and not old & bit:
+        if self.logic.standard & bit and not old & bit:
             self._reset_alarms()
         self.pdo.poll_events()
 
     def _set_fieldbus(self, value: int) -> None:
-        self._fieldbus = value & 0xFFFFFFFF
+        self.logic.fieldbus = value & 0xFFFFFFFF
         self._logic_changed()
 
     def _set_fieldbus_function(self, function: int, value: int) -> None:
-        bit = 1 << function
-        self._fieldbus = self._fieldbus | bit if value else self._fieldbus & ~bit
+        self.logic.set_fieldbus_function(function, value)
         self._logic_changed()
 
     def _set_application(self, value: int) -> None:
-        self._application = value & 0xFFFFFFFF
+        self.logic.application = value & 0xFFFFFFFF
+        self._logic_changed()
 
     def _running(self) -> bool:
-        return bool(self._logic & 1) and not self._alarms
+        return bool(self.logic.standard & 1) and not self._alarms
 
     # ---- alarms --------------------------------------------------------------------------------
     def _trip(self, number: int) -> None:
@@ -537,12 +463,9 @@ class SimOpenDrive(SimulatedSlave):
     def reset_application(self) -> None:
         """Power-on / reset node: parameters from non-volatile memory, fieldbus RUN high, no alarm."""
         self.tab_par, self.tab_con = list(self._nv_par), list(self._nv_con)
-        self._fieldbus = 1 << o.RUN
-        self._application = 0
         self._alarms = 0
-        self._guard_stop = False
         self.motor.reset()
-        self._logic = self._compute_logic()
+        self.logic.reset()
 
     def on_boot(self) -> None:
         for number in range(16):  # causes still present trip their alarm again
@@ -559,14 +482,22 @@ class SimOpenDrive(SimulatedSlave):
         return 32767.0 / self.options['pwm_frequency']
 
     def on_life_guarding_lost(self) -> None:
-        if self.options['life_guarding_reaction'] == 'stop':
-            self._guard_stop = True
+        """The firmware's reaction (option life_guarding_reaction): none, RUN low, or an alarm."""
+        reaction = self.options['life_guarding_reaction']
+        if reaction == 'stop':
+            self.logic.guard_stop = True
             self._logic_changed()
+        elif reaction == 'alarm':
+            self._causes |= 1 << self.options['guarding_alarm']  # until the RTRs come back
+            self._trip(self.options['guarding_alarm'])
+            self.pdo.poll_events()
 
     def on_life_guarding_recovered(self) -> None:
-        if self._guard_stop:
-            self._guard_stop = False
+        if self.logic.guard_stop:
+            self.logic.guard_stop = False
             self._logic_changed()
+        if self.options['life_guarding_reaction'] == 'alarm':
+            self._causes &= ~(1 << self.options['guarding_alarm'])  # an alarm reset clears it now
 
     # ---- RTR-only TPDOs ------------------------------------------------------------------------
     def _update_remote_frames(self) -> None:

@@ -27,18 +27,10 @@ MONITOR_POINTS = 2000
 
 HIGH = 32767  # a logic function's "high" in the INT16 tables
 RUN = 0  # standard logic input function I00 "marcia"
-STANDARD_FUNCTIONS = 32
-TERMINAL_INPUTS = 8
 
 SPEED_FULL_SCALE = 16384  # 0x201A: 16384 = 100 % n_MAX
 TORQUE_FULL_SCALE = 4095  # 0x201B / 0x201C: 4095 = 100 % T_nom
 PULSES_PER_REVOLUTION = 65536  # 0x201D (times the pole pairs: electrical)
-
-# 0x2003 / 0x2004 representation words (§3.3, rebuilt from the examples 0x0002, 0x0041, 0x0003)
-REPR_DIRECT = 0x0001  # low nibble 1: direct value / 2^n, n in bits 4-7
-REPR_PERCENT_4095 = 0x0002
-REPR_PERCENT_32767 = 0x0003
-REPR_SPEED = 0x00E1  # direct / 2^14: 16384 = 1.0 (= n_MAX)
 
 EMCY_GENERIC = 0x1000  # "0x10xx" generic error (xx = 00)
 EMCY_RESET = 0x0000  # "0x00xx" error reset / no error

@@ -115,7 +115,7 @@ PARAMETERS: dict[int, Parameter] = {p.number: p for p in (
 )}
 
 CONNECTIONS: dict[int, Parameter] = {c.number: c for c in (
-    *(_c(n, f'function of terminal input {n}', 0x2020, 0, 31, d)
+    *(_c(n, f'function of terminal input {n} (I00..I28 standard, I29..I63 application)', 0x2020, 0, 63, d)
       for n, d in ((1, 0), (2, 5), (3, 1), (4, 2), (5, 3), (6, 4), (7, 6), (8, 7))),
     _c(14, 'monitor trigger source', format_word(FREE, DIRECT, 2, 0), 0, 63, 0),
     _c(15, 'monitor channel A quantity', format_word(FREE, DIRECT, 2, 0), 0, 63, 0),
@@ -133,4 +133,3 @@ EXTRA: dict[int, tuple[int, int, int, int, int]] = {
 
 P60, P99, P162, P163 = 60, 99, 162, 163
 C48, C52, C63 = 48, 52, 63
-TERMINAL_CONNECTIONS = range(1, 9)  # C1..C8: the logic function of terminal input 1..8

@@ -45,8 +45,12 @@ State machine [4.2, B]
 PDOs [2.4, 2.5] (pdo)
     At most 25 valid RPDOs (alarm A08758 on the CU, EMCY 0x1001; only the first 25 that became
     valid are received). A synchronous RPDO received after SYNC k takes effect at SYNC k + 1;
-    asynchronous ones (0xFE, the default) at once. ``mapping_sub0_read_only``: the manual's
-    read-only sub 0 (default false: the EDS's read-write, the CiA 301 procedure).
+    asynchronous ones (0xFE, the default) at once. Remapping as the manual's online procedure
+    (§4.3.1: COB-ID invalid, the entries, COB-ID valid) with every option: the entries of an
+    invalid PDO are written whatever sub 0 holds, sub 0 follows the leading non-zero entries,
+    the 64-bit limit is checked when the PDO becomes valid. ``mapping_sub0_read_only``: the
+    manual's read-only sub 0 (default false: the EDS's read-write, so a CiA 301 master's sub 0
+    = 0, entries, sub 0 = n works as well).
 
 Telegram monitoring [2.4, §2.10]
     An RPDO whose mean cycle (exponential average, weight 0.1, over at least 8 intervals, frame time
@@ -64,6 +68,12 @@ Messages, EMCY [2.6, 2.7, 6] (emcy)
     0x1003 per module; 0x1003:0 = 0 acknowledges the faults of every drive object, as does a
     controlword bit 7 edge for its own; a fault whose cause persists stays; EMCY 0x0000 once
     nothing is signalled any more. r0947 / r0949 / r2110 list a drive object's messages.
+
+Node id [1.3] (address)
+    Read at POWER ON (:meth:`SimS120.power_off` / :meth:`~SimS120.power_on`): the address switch
+    (option ``address_switch``, :meth:`~SimS120.set_address_switch`) when it holds 1..127, shown
+    in p8620; else the saved p8620 (factory: the node config's id). The node then answers, boots
+    and sends under that id; COB-IDs still at their predefined value follow it.
 
 Error control [2.2, 6.5]
     Heartbeat producer only (0x1016 removed if an EDS brings it). Node guarding and life
@@ -90,13 +100,14 @@ Not modelled: PP / homing (EPOS), free process-data objects 0x58xx (stored only)
 interconnection (every mapped object acts), the SDO/PZD split of §4.5 (one value per object),
 the extra SDO servers 0x1201.. (stored only), 0x6094 (stored, not applied), p1080 (stored, no
 minimum speed), p8685, p2118 / p2119 message types, the infeed, bus-off / error passive
-(A08752 only by injection), the TPDO limit ratio (lost figure), the node id / bit rate taking
-effect after POWER ON (p8620 is stored only), p0009 states other than the reboot on 0.
+(A08752 only by injection), the TPDO limit ratio (lost figure), the bit rate (p8622 is not in the
+manual), p0009 states other than the reboot on 0.
 """
 
 from drive_bridge.sim.s120.axis import S120Axis
-from drive_bridge.sim.s120.drive import S120_OPTIONS, DriveObjectView, SimS120
+from drive_bridge.sim.s120.drive import DriveObjectView, SimS120
 from drive_bridge.sim.s120.emcy import Message, S120Emcy
+from drive_bridge.sim.s120.options import S120_OPTIONS
 from drive_bridge.sim.s120.pdo import S120PdoEngine
 
 __all__ = ['DriveObjectView', 'Message', 'S120Axis', 'S120Emcy', 'S120PdoEngine', 'S120_OPTIONS', 'SimS120']

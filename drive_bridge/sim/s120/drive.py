@@ -7,7 +7,7 @@ import copy
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from canopen.objectdictionary import ODVariable
@@ -19,9 +19,10 @@ from drive_bridge.model import NodeConfig
 from drive_bridge.sim.commobjects import PRODUCER_HEARTBEAT
 from drive_bridge.sim.drive402 import SimDrive402
 from drive_bridge.sim.nmt import NmtState
-from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, OptionSpec
+from drive_bridge.sim.nodeid import change_node_id
 from drive_bridge.sim.pdo import COB_INVALID, Pdo
 from drive_bridge.sim.registry import register_simulator
+from drive_bridge.sim.s120.address import AddressSwitch
 from drive_bridge.sim.s120.axis import S120Axis
 from drive_bridge.sim.s120.emcy import Message, S120Emcy, write_history
 from drive_bridge.sim.s120.objects import (
@@ -40,7 +41,6 @@ from drive_bridge.sim.s120.objects import (
     ERROR_BEHAVIOUR,
     ERROR_HISTORY,
     F08700,
-    MAX_DRIVE_OBJECTS,
     NMT_PRE_OPERATIONAL,
     NMT_STOPPED,
     P8641_REACTIONS,
@@ -55,6 +55,7 @@ from drive_bridge.sim.s120.objects import (
     SIGNATURE_SAVE,
     STORE_PARAMETERS,
 )
+from drive_bridge.sim.s120.options import S120_OPTIONS
 from drive_bridge.sim.s120.parameters import DYNAMIC, PARAMETERS, Parameter, ParameterSet, profile_parameters
 from drive_bridge.sim.s120.pdo import S120PdoEngine
 from drive_bridge.sim.store import key
@@ -73,57 +74,6 @@ RPDO_MAPS = {1: (0x60400010,), 2: (0x60400010, 0x60FF0020), 3: (0x60400010, 0x60
 TPDO_MAPS = {1: (0x60410010,), 2: (0x60410010, 0x606C0020), 3: (0x60410010, 0x60770010),
              4: (0x60410010, 0x60630020)}
 
-_AXIS = {name: replace(spec) for name, spec in AXIS_OPTIONS.items()}
-_AXIS['inertia'] = replace(AXIS_OPTIONS['inertia'], default=1e-7,
-                           doc='per mille of r0333 per increment/s^2 (for 2048 x 2^11 increments per '
-                               'revolution: rated torque reaches 3000 rpm in about 20 ms)')
-_AXIS['friction'] = replace(AXIS_OPTIONS['friction'], default=5e-8,
-                            doc='viscous friction, per mille of r0333 per increment/s')
-
-
-def _axis_option(name: str, kind: type, default: Any, doc: str, low: float | None = None,
-                 high: float | None = None) -> OptionSpec:
-    return OptionSpec(name, kind, default, doc, low, high, per_axis=True)
-
-
-S120_OPTIONS: dict[str, OptionSpec] = {
-    **{name: spec for name, spec in SLAVE_OPTIONS.items() if name != 'life_guarding_reaction'},
-    'drive_objects': OptionSpec('drive_objects', int, 0,
-                                'number of motor drive objects (axis slots) of the Control Unit; 0: every '
-                                'axis the object dictionary has (0x6040 + 0x800 k)', 0, MAX_DRIVE_OBJECTS),
-    'p8684': OptionSpec('p8684', int, 127, 'NMT state after start-up: 127 pre-operational (factory), '
-                                           '5 operational, 4 stopped', 4, 127),
-    'p8848': OptionSpec('p8848', float, 4.0, 'ms, CAN (IF2 PZD) sampling time: RPDOs must come at most every '
-                                             '2 x p8848 (A08751)', 1.0, 500.0),
-    'mapping_sub0_read_only': OptionSpec('mapping_sub0_read_only', bool, False,
-                                         "true: PDO mapping sub 0 is read-only (the manual's Tab. 2-3/2-4), "
-                                         "sub 0 follows the leading non-zero entries; false: read-write as in "
-                                         "the real EDS (CiA 301 procedure)"),
-    'predefined_mapping': OptionSpec('predefined_mapping', bool, True,
-                                     "PDO 1..4 of every drive object whose mapping the EDS leaves empty get the "
-                                     "Predefined Connection Set's mapping (+0x800 per slot)"),
-    'reboot_delay': OptionSpec('reboot_delay', float, 0.05, 's from p0009 = 0 to the reboot of the Control Unit',
-                               0.0, 60.0),
-    **_AXIS,
-    'do_numbers': _axis_option('do_numbers', int, 0, 'drive-object number of the axis slot (p8743); 0: 2 + slot',
-                               0, 62),
-    'encoder': _axis_option('encoder', bool, True, 'true: velocities in increments/s; false: in rpm, 0x6063 = 0'),
-    'encoder_pulses': _axis_option('encoder_pulses', int, 2048, 'p0408, encoder pulses per revolution', 1, 65535),
-    'fine_resolution': _axis_option('fine_resolution', int, 11, 'p0418, fine resolution in bits', 2, 18),
-    'rated_torque': _axis_option('rated_torque', float, 10.0, 'r0333, rated motor torque in N m', 1e-3, 1e5),
-    'rated_speed': _axis_option('rated_speed', float, 3000.0, 'p0311, rated motor speed in rpm', 1.0, 210000.0),
-    'max_speed': _axis_option('max_speed', float, 3000.0, 'p1082, maximum speed in rpm', 1.0, 210000.0),
-    'ramp_up_time': _axis_option('ramp_up_time', float, 10.0, 'p1120, s from 0 to p1082 (SINAMICS factory '
-                                                              'value)', 0.0, 999999.0),
-    'ramp_down_time': _axis_option('ramp_down_time', float, 10.0, 'p1121, s from p1082 to 0', 0.0, 999999.0),
-    'off3_ramp_down_time': _axis_option('off3_ramp_down_time', float, 0.0,
-                                        'p1135, OFF3 (quick stop) s from p1082 to 0 (0: at the torque limit)',
-                                        0.0, 5400.0),
-    'torque_limit': _axis_option('torque_limit', float, 0.0, 'p1520 in N m; 0: 2 x r0333', 0.0, 1e6),
-    'p8641': _axis_option('p8641', int, 0, 'reaction to a CAN communication error: 0 none (factory), 1 OFF1, '
-                                           '2 OFF2, 3 OFF3 (= 0x6007)', 0, 3),
-    'mode': _axis_option('mode', int, 3, 'mode at power-on (p1300): 2 vl, 3 pv, 4 pt', 2, 4),
-}
 
 
 @dataclass(frozen=True)
@@ -194,6 +144,8 @@ class SimS120(SimDrive402):
                                       8743: [a.do_number for a in self.s120_axes]
                                       + [0] * (8 - len(self.s120_axes))})
         self.effective_p8848 = float(opts['p8848'])
+        self.address_switch = AddressSwitch(opts['address_switch'])
+        self._power_cycle = False
         self.store.remove(CONSUMER_HEARTBEAT)  # producer only [2.2]
         self._relax_inverted_limits()
         emcy: S120Emcy = self.emcy  # type: ignore[assignment]
@@ -645,8 +597,20 @@ class SimS120(SimDrive402):
     def power_on(self) -> None:
         with self._lock:
             if not self.powered:
-                self._load_saved = True
+                self._load_saved = self._power_cycle = True
             super().power_on()
+
+    def set_address_switch(self, value: int) -> None:
+        """Turn the Control Unit's address switch (0..255): read at the next POWER ON (module address)."""
+        with self._lock:
+            self.address_switch.set(value)
+
+    def _read_node_id(self) -> None:
+        """At POWER ON: the address switch, else the saved p8620 (module address)."""
+        node_id, shown = self.address_switch.node_id(self.cu.get(8620))
+        if shown:
+            self.cu.set(8620, 0, node_id)
+        change_node_id(self, node_id, self._factory)
 
     def reset_application(self) -> None:
         """Power-on and CU reboot load the saved parameters; NMT reset node keeps them (they are the
@@ -657,6 +621,9 @@ class SimS120(SimDrive402):
             for axis in self.s120_axes:
                 axis.parameters.load_saved()
             self.selector = [0, 0, 0]
+            if self._power_cycle or self.options['node_id_at_reboot']:
+                self._read_node_id()
+        self._power_cycle = False
         self.effective_p8848 = float(self.cu.get(8848))
         self._kept = [m for m in self.messages if m.persistent and m.number != F08700]
         self.messages = []

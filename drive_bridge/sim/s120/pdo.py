@@ -5,9 +5,13 @@
 - at most 25 valid RPDOs over all drive objects (a hardware limit): while more are valid, alarm
   A08758 is raised (:attr:`S120PdoEngine.on_limit`) and only the first 25 that became valid are
   received;
-- mapping sub 0 read-only (``sub0_read_only``, the manual's Tab. 2-3/2-4; the real EDS says
-  rw and is the default): sub 0 writes abort 0x06010002, entries may be written whenever the
-  PDO is invalid (COB-ID bit 31), and sub 0 follows as the number of leading non-zero entries;
+- mapping entries may be written whenever the PDO is invalid (COB-ID bit 31), whatever sub 0
+  holds: the manual's online procedure (COB-ID invalid, the entries, COB-ID valid; §4.3.1);
+  sub 0 then follows as the number of leading non-zero entries. Sub 0 itself is read-write
+  (the real EDS, the default: CiA 301's sub 0 = 0, entries, sub 0 = n works too, sub 0 staying
+  0 until the master writes n) or read-only (``sub0_read_only``, the manual's Tab. 2-3/2-4:
+  abort 0x06010002). A mapping longer than 64 bits is refused when the PDO is made valid
+  (0x06040042), not while its entries are being written;
 - every received RPDO is reported with its frame time stamp (:attr:`S120PdoEngine.on_received`)
   for the telegram monitoring of p8848 (A08751);
 - a synchronous RPDO takes effect at the SYNC after the one it followed (the generic engine's
@@ -20,7 +24,7 @@ from typing import Any
 
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.sim.pdo import MAX_BITS, Pdo, PdoEngine
+from drive_bridge.sim.pdo import COB_INVALID, MAX_BITS, Pdo, PdoEngine
 from drive_bridge.sim.s120.objects import ABORT_PDO_TOO_LONG, ABORT_READ_ONLY, ABORT_STATE, MAX_VALID_RPDOS
 from drive_bridge.sim.store import key
 
@@ -31,6 +35,7 @@ class S120PdoEngine(PdoEngine):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.sub0_read_only = False
+        self._follow: int | None = None  # the mapping whose sub 0 follows the entry being written
         self.on_limit: Callable[[bool], None] = lambda exceeded: None
         self.on_received: Callable[[Pdo, float], None] = lambda pdo, stamp: None
         self.limit_exceeded = False
@@ -58,35 +63,53 @@ class S120PdoEngine(PdoEngine):
         served = set(self._order[:MAX_VALID_RPDOS])
         return [p for p in valid if p.number in served]
 
-    # -- mapping sub 0 read-only --------------------------------------------------------------------
+    # -- mapping: the manual's online procedure [2.5] ----------------------------------------------
     def validate(self, index: int, subindex: int, value: int) -> None:
+        """Mapping entries are written whenever the PDO is invalid, whatever sub 0 holds (the
+        manual's online procedure: COB-ID invalid, the entries, COB-ID valid); sub 0 is
+        read-write (the CiA 301 procedure, the EDS) or read-only (``sub0_read_only``). The
+        length of the mapping is checked when the PDO is made valid."""
+        self._follow = None
         pdo = self._by_index[index]
-        if not self.sub0_read_only or index != pdo.mapping:
+        values = self._store.values
+        if index == pdo.comm:
+            cob = values[key(pdo.comm, 1)]
+            if subindex == 1 and cob & COB_INVALID and not value & COB_INVALID:
+                bits = sum(e & 0xFF for e in self._mapped(pdo))
+                if bits > MAX_BITS:
+                    raise SdoAbortedError(ABORT_PDO_TOO_LONG)
             super().validate(index, subindex, value)
             return
         if subindex == 0:
-            raise SdoAbortedError(ABORT_READ_ONLY)
-        values = self._store.values
+            if self.sub0_read_only:
+                raise SdoAbortedError(ABORT_READ_ONLY)
+            super().validate(index, subindex, value)
+            return
         if self.mapping_locked(pdo, values[key(pdo.comm, 1)]):
             raise SdoAbortedError(ABORT_STATE)
         if value != 0:
             self._check_entry(pdo, value)
-        entries = self._entries(pdo, {subindex: value})
-        if sum(e & 0xFF for e in entries) > MAX_BITS:
-            raise SdoAbortedError(ABORT_PDO_TOO_LONG)
+        # sub 0 follows the entries unless a CiA 301 master set it to 0 to write them
+        self._follow = index if self.sub0_read_only or values[key(index, 0)] != 0 else None
 
     def written(self, index: int) -> None:
         pdo = self._by_index[index]
-        if self.sub0_read_only and index == pdo.mapping:
-            self._store.values[key(pdo.mapping, 0)] = len(self._entries(pdo, {}))
+        if index == pdo.mapping and self._follow == index:
+            self._store.values[key(pdo.mapping, 0)] = len(self._entries(pdo))
+        self._follow = None
         super().written(index)
 
-    def _entries(self, pdo: Pdo, changed: dict[int, int]) -> list[int]:
-        """The leading non-zero mapping entries (with ``changed`` sub-indices replaced)."""
+    def _mapped(self, pdo: Pdo) -> list[int]:
+        """The entries sub 0 counts."""
+        values = self._store.values
+        return [values[key(pdo.mapping, sub)] for sub in range(1, values[key(pdo.mapping, 0)] + 1)]
+
+    def _entries(self, pdo: Pdo) -> list[int]:
+        """The leading non-zero mapping entries."""
         entries = []
         sub = 1
         while key(pdo.mapping, sub) in self._store:
-            entry = changed.get(sub, self._store.values[key(pdo.mapping, sub)])
+            entry = self._store.values[key(pdo.mapping, sub)]
             if not entry:
                 break
             entries.append(entry)

@@ -29,10 +29,13 @@ CiA 301 [2]:
   Without DRVCNFG bit 2 the size of an expedited download is fitted to the object (the manual
   writes 16-bit objects with 4-byte and 32-bit objects with 2-byte frames); with it a wrong size
   aborts 0x06070010. 0x6060 is write-only (an upload aborts 0x06010001).
-- EMCY [2.10, 3]: byte 3 = category (the manual's table; unknown codes category 1, PDO errors
-  3), bytes 4..7 zero; every error EMCY is followed by an EMCY 0x0000 with the present error
-  register and the category; an acknowledge / reset sends 0x0000 with the remaining register.
-  0x1003 holds the last error only.
+- EMCY [2.10, 3] (module emcy): byte 3 = category (the manual's table; unknown codes category
+  1, PDO errors 3), bytes 4..7 zero; error register: only the bit of the code's class, bit 7 for
+  a code of no class (4310h gives 08h as §6.1.10 / §6.2.1.1 print; option
+  ``emcy_error_register``); every error EMCY is followed by an EMCY 0x0000 with the present
+  error register and byte 3 00h (the frame §6.2.1.1 prints; option ``emcy_follow_up_category``);
+  an acknowledge / reset sends 0x0000 with the remaining register. 0x1003 holds the last error
+  only.
 - PDOs [2.5-2.8]: four channels per direction; 0x2600-0x2603 / 0x2A00-0x2A03 select a library
   PDO by number (RPDO 1, 21, 22, 32, 33, 34, 35, 41; TPDO 1, 21, 22, 23, 32, 33, 34, 41; free
   37-40; 0 = empty; reserved numbers abort 0x06090030) and 0x16xx / 0x1Axx show its mapping;
@@ -74,6 +77,12 @@ CiA 402 [4-7]:
   response monitoring, 0x8682, ...): EMCY pair, bit 31, emergency ramp in Operation Enabled,
   motion blocked (also after a re-enable) until controlword bit 11 (rising) or CLRFAULT.
   Categories 3 and 5: the EMCY pair only. ``inject_fault(code, category=None, persistent=False)``.
+- 0x1002 / DRVSTAT (2080h:03-06 its bytes, 2080h:07-0A TRJSTAT's, the same here): bit 16
+  (motion task active) from the start of a motion task (FFh), a homing (F9h, hm 6) or an
+  acknowledged pp set-point to its end; bit 17 (reference set) cleared when a homing starts, set
+  when it ends; bits 18 (at the home position, within PEINPOS of ROFFS) and 19 (in position:
+  standstill within PEINPOS) only while no task runs (§6.1.6: 2080h:09 = 03h at the
+  acknowledge, 0Ah at the target).
 - Statusword: bit 4 inverted (1 = no DC link, :meth:`SimServostar.set_dc_link`), bit 9 never,
   bit 7 while a warning (0x1002 bits 0..15) is pending, bit 8 toggles at every completed motion
   task / pp target, bit 11 only with DRVCNFG bit 20 (warnings n04, n06, n07, n09-n11, n13), bit

@@ -13,28 +13,17 @@ from drive_bridge.sim.axis402 import Axis402
 from drive_bridge.sim.interfaces import AxisDrive
 from drive_bridge.sim.motion import wrap_int32
 from drive_bridge.sim.opmodes import OpMode, make_mode
-from drive_bridge.sim.servostar.modes import (
-    SPEED_ZERO,
-    DigitalCurrent,
-    DigitalSpeed,
-    Jog,
-    ManufacturerHoming,
-    MotionTask,
-    StarProfilePosition,
-    Trajectory,
-)
+from drive_bridge.sim.servostar.modes import SPEED_ZERO, STAR_MODES, MotionTask, Trajectory
 from drive_bridge.sim.servostar.objects import (
     ABORT_INVALID_VALUE,
     ACC,
     ACTUAL,
     COUNTS_PER_REV,
-    CURRENT_DIGITAL,
     CW_ACKNOWLEDGE,
     DEC,
     DECSTOP,
     DRVCNFG,
     DRVCNFG_STATUS_BIT11,
-    HOMING_MANUFACTURER,
     HOMING_METHODS,
     INTERNAL_LIMIT_WARNINGS,
     INTERPOLATION_PERIOD,
@@ -43,13 +32,11 @@ from drive_bridge.sim.servostar.objects import (
     MOTION_TASK,
     MOTION_TASK_PDO,
     OPMODE,
-    POSITION,
     POSITION_CONTROLLER,
     POSITION_FACTOR,
     POSITION_INCREMENTS,
     POWER_ON_MODES,
     PRBASE,
-    PROFILE_POSITION,
     PROFILE_VELOCITY,
     PTBASE,
     RATED_CURRENT_MA,
@@ -69,7 +56,6 @@ from drive_bridge.sim.servostar.objects import (
     SW_REMOTE,
     SW_TOGGLE,
     SW_VOLTAGE_DISABLE,
-    TRAJECTORY,
     VALUE,
     VELOCITY_FACTOR,
     VLIM,
@@ -345,10 +331,7 @@ class ServostarAxis(Axis402):
             raise SdoAbortedError(ABORT_INVALID_VALUE)
 
     def mode_for(self, code: int) -> OpMode:
-        modes = {TRAJECTORY: Trajectory, SPEED_DIGITAL: DigitalSpeed, CURRENT_DIGITAL: DigitalCurrent, JOG: Jog,
-                 HOMING_MANUFACTURER: ManufacturerHoming, POSITION: MotionTask,
-                 PROFILE_POSITION: StarProfilePosition}
-        factory = modes.get(code)
+        factory = STAR_MODES.get(code)
         return factory() if factory is not None else make_mode(code)
 
     def set_mode(self, code: int) -> None:
@@ -452,16 +435,22 @@ class ServostarAxis(Axis402):
         return sw
 
     def in_position(self) -> bool:
+        """0x1002 bit 19: at standstill within PEINPOS of the demand, and no motion task running
+        (a task that starts leaves "in position" at once: 03h, not 0Bh, in §6.1.6's frames)."""
+        if self.task_active:
+            return False
         window = self.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000))
         return self.standstill() and abs(self.dp - self.p) <= window
 
     def status_register(self) -> int:
-        """0x1002 (DRVSTAT), the bits the simulation knows."""
+        """0x1002 (DRVSTAT), the bits the simulation knows. Bits 18 (at the home position) and 19
+        (in position) are 0 while a motion task runs (the frames of §6.1.6)."""
         bits = self.warnings | ST_INIT_DONE
         if self.task_active:
             bits |= ST_TASK_ACTIVE
         if self.homed:
             bits |= ST_REFERENCE_SET
+        if self.homed and not self.task_active:  # 03h, not 07h, at §6.1.6's set-point acknowledge
             offset = self.user_to_counts(self._values.get(key(0x2024, 6), 0))
             if abs(self.p - offset) <= self.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000)):
                 bits |= ST_HOME_POSITION

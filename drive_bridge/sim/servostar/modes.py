@@ -6,17 +6,20 @@ drive's objects (2^PRBASE increments, 1875/262144 rpm, user units, ramp times in
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 from drive_bridge.cia402.statemachine import CW_OMS_4, SW_OMS_12, SW_TARGET_REACHED
 from drive_bridge.sim.interfaces import ModeAxis
 from drive_bridge.sim.motion import clamp, position_step, stop_step, velocity_step
-from drive_bridge.sim.opmodes import OpMode, ProfilePosition
+from drive_bridge.sim.opmodes import Homing, OpMode, ProfilePosition
 from drive_bridge.sim.servostar.objects import (
     CURRENT_DIGITAL,
+    HOMING,
     HOMING_MANUFACTURER,
     JOG,
     POSITION,
+    PROFILE_POSITION,
     RATED_CURRENT_COUNTS,
     SPEED_DIGITAL,
     TRAJECTORY,
@@ -170,6 +173,7 @@ class ManufacturerHoming(OpMode):
         star: StarAxis = ax  # type: ignore[assignment]
         if not _rising(prev, cw, CW_OMS_4):
             return
+        star.homed = False  # the reference is set again at the end: bit 17 rises then [6.1.4]
         kind = ax.param(0x2024, 1, default=0)
         offset = star.user_to_counts(ax.param(0x2024, 6, default=0))
         if kind == 0:
@@ -248,15 +252,62 @@ class MotionTask(OpMode):
 
 
 class StarProfilePosition(ProfilePosition):
-    """pp with the SERVOSTAR's statusword bit 8 toggling at every target reached."""
+    """pp with the SERVOSTAR's statusword bit 8 toggling at every target reached and 0x1002
+    bit 16 (motion task active) from the acknowledged set-point to its target: the status
+    byte 2080h:09 reads 03h (task active, reference set) while it runs, 0Ah (reference set,
+    in position) at the target [9.6 step 10]."""
 
     def __init__(self) -> None:
         super().__init__()
         self._was_arrived = True
 
+    def enter(self, ax: ModeAxis) -> None:
+        super().enter(ax)
+        self._was_arrived = True
+
+    def on_controlword(self, ax: ModeAxis, prev: int, cw: int) -> None:
+        super().on_controlword(ax, prev, cw)
+        star: StarAxis = ax  # type: ignore[assignment]
+        star.task_active = not self.arrived or self.pending is not None
+
     def post_step(self, ax: ModeAxis, dt: float) -> None:
         super().post_step(ax, dt)
+        star: StarAxis = ax  # type: ignore[assignment]
         if self.arrived and not self._was_arrived:
-            star: StarAxis = ax  # type: ignore[assignment]
             star.toggle = not star.toggle
         self._was_arrived = self.arrived
+        star.task_active = not self.arrived or self.pending is not None
+
+
+class StarHoming(Homing):
+    """hm (6), the CiA 402 homing, with the SERVOSTAR's status register: 0x1002 bit 16 (motion
+    task active) while it runs, bit 17 (reference set) cleared at its start and set once the
+    home offset is set; at the end the status byte 2080h:09 has bit 0 = 0, bit 1 = 1, bit 3 =
+    1 (homing finished, reference set, in position) [9.6 step 7]."""
+
+    def on_controlword(self, ax: ModeAxis, prev: int, cw: int) -> None:
+        star: StarAxis = ax  # type: ignore[assignment]
+        if _rising(prev, cw, CW_OMS_4):
+            star.homed = False
+            self.phase = 'idle'
+        self._run(star, lambda: super(StarHoming, self).on_controlword(ax, prev, cw))
+
+    def resume(self, ax: ModeAxis) -> None:
+        self._run(ax, lambda: super(StarHoming, self).resume(ax))  # type: ignore[arg-type]
+
+    def step(self, ax: ModeAxis, dt: float) -> None:
+        self._run(ax, lambda: super(StarHoming, self).step(ax, dt))  # type: ignore[arg-type]
+
+    def _run(self, star: StarAxis, action: Callable[[], None]) -> None:
+        before = self.phase
+        action()
+        star.task_active = self.phase in ('search', 'creep')
+        if self.phase == 'done' and before != 'done':
+            star.homed = True
+
+
+# the SERVOSTAR's own classes by mode number (the others: the CiA 402 models of opmodes)
+STAR_MODES: dict[int, type[OpMode]] = {
+    TRAJECTORY: Trajectory, SPEED_DIGITAL: DigitalSpeed, CURRENT_DIGITAL: DigitalCurrent, JOG: Jog,
+    HOMING_MANUFACTURER: ManufacturerHoming, POSITION: MotionTask, PROFILE_POSITION: StarProfilePosition,
+    HOMING: StarHoming}
