@@ -38,15 +38,18 @@ def nice_ticks(lo: float, hi: float, most: int = 7) -> list[float]:
 
 
 def tick_label(value: float, step: float) -> str:
-    digits = max(0, -math.floor(math.log10(step)) + (1 if step / 10 ** math.floor(math.log10(step)) == 2.5 else 0)) \
-        if step > 0 else 0
+    """A tick value with the decimals its step needs (0.25 apart: two; 0.5: one; 100: none)."""
+    digits = 0
+    if step > 0:
+        exponent = math.floor(math.log10(step))
+        digits = max(0, -exponent + (1 if round(step / 10.0 ** exponent, 6) == 2.5 else 0))
     text = f'{value:.{digits}f}'
-    return '0' if text.strip('-0.') == '' else text
+    return '0' if text.strip('-0.') == '' else text  # no "-0.00"
 
 
 @dataclass
 class _Series:
-    kind: str  # 'step', 'line', 'fill', 'bars', 'markers', 'vlines'
+    kind: str  # 'step', 'line', 'fill', 'bars', 'columns', 'markers', 'vlines'
     xs: Sequence[float]
     ys: Sequence[float] = ()
     color: str = 'C0'
