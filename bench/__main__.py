@@ -1,5 +1,5 @@
-"""``python -m bench [tracking|memory|recording|diagnose|diagnose_lens|transport|ros_cycle|soak] [options]``:
-run a benchmark and print its table."""
+"""``python -m bench NAME [options]``, NAME one of tracking, memory, recording, diagnose, diagnose_lens,
+transport, ros_cycle, soak, motion_check: run a benchmark and print its table."""
 from __future__ import annotations
 
 import os
@@ -9,7 +9,8 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 BENCHMARKS = {'tracking': 'bench.tracking', 'memory': 'bench.memory', 'recording': 'bench.recording',
               'diagnose': 'bench.diagnose', 'transport': 'bench.transport', 'ros_cycle': 'bench.ros_cycle',
-              'soak': 'bench.soak', 'diagnose_lens': 'bench.diagnose_lens'}
+              'soak': 'bench.soak', 'motion_check': 'bench.motion_check',
+              'diagnose_lens': 'bench.diagnose_lens'}
 
 
 def main() -> None:

@@ -128,6 +128,9 @@ class AxisLimits:
     max_velocity: float | None = None
     max_acceleration: float | None = None
     max_effort: float | None = None
+    on_violation: str = 'halt'  # what holds the axis when a set-point breaks a limit: halt or quick_stop
+    # where each limit came from, for the start-up line: 'config', or the drive object read at boot
+    sources: Mapping[str, str] = field(default_factory=dict, compare=False)
     todo: tuple[str, ...] = ()
 
 
@@ -313,6 +316,35 @@ class NodeRule:
 
 
 @dataclass(frozen=True)
+class SafetyAllowance:
+    """Safety objects (indices) and vendor parameters (names, upper case, without an index)
+    that ROS clients may write anyway: per node id, else ``default`` (the bus config's
+    ``access.safety_objects``; by default none)."""
+
+    default: tuple[tuple[ObjectRange, ...], frozenset[str]] = ((), frozenset())
+    nodes: Mapping[int, tuple[tuple[ObjectRange, ...], frozenset[str]]] = field(default_factory=dict)
+    every: bool = False  # ``true``: every safety object of every node
+
+    def allows_object(self, node_id: int, index: int) -> bool:
+        ranges = self.nodes.get(node_id, self.default)[0]
+        return self.every or any(index in r for r in ranges)
+
+    def allows_name(self, node_id: int, name: str) -> bool:
+        names = self.nodes.get(node_id, self.default)[1]
+        return self.every or safety_name(name) in names
+
+
+def safety_name(name: str) -> str:
+    """A vendor parameter's name as the allowance compares it: 'p8641[0]' -> 'P8641'."""
+    text = name.strip().upper()
+    for mark in ('[', '.'):
+        head, sep, tail = text.partition(mark)
+        if sep and (mark == '[' or tail.isdigit()):
+            text = head
+    return text.replace(' ', '')
+
+
+@dataclass(frozen=True)
 class AccessConfig:
     """What ROS clients may do through the services that write (the bus config's ``access``).
 
@@ -329,6 +361,7 @@ class AccessConfig:
     param_read: NodeRule = NodeRule(configured=True)
     param_write: NodeRule = NodeRule(configured=True)
     param_save: NodeRule = NodeRule()
+    safety_objects: SafetyAllowance = SafetyAllowance()
 
 
 @dataclass(frozen=True)
@@ -342,6 +375,13 @@ class RecordConfig:
 
 
 @dataclass(frozen=True)
+class TrajectoryConfig:
+    """How trajectories beyond the joints' limits are treated (the ``trajectory`` section)."""
+
+    scale_to_limits: bool = False  # stretch the segments in time instead of refusing the trajectory
+
+
+@dataclass(frozen=True)
 class BusConfig:
     """One bus: interface, master, nodes and their axes."""
 
@@ -351,6 +391,7 @@ class BusConfig:
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
     access: AccessConfig = field(default_factory=AccessConfig)
     record: RecordConfig = field(default_factory=RecordConfig)
+    trajectory: TrajectoryConfig = field(default_factory=TrajectoryConfig)
     path: Path | None = None
     warnings: tuple[str, ...] = ()  # accepted but ignored keys (e.g. ros2_canopen ones), each located
     allow_overload: bool = False  # bus.allow_overload: run a configuration the bus cannot carry

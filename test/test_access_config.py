@@ -55,7 +55,7 @@ access:
   readonly: true
 """) == [
         "drives.yaml: access.readonly: unknown key (did you mean 'read_only'?); allowed keys: nmt, param_read, "
-        'param_save, param_write, read_only, sdo_read, sdo_write, store_restore',
+        'param_save, param_write, read_only, safety_objects, sdo_read, sdo_write, store_restore',
         "drives.yaml: access.sdo_read: expected true, false or a list of an index (0x6040) or a range "
         "\"0x6000-0x6FFF\", got 3",
         "drives.yaml: access.sdo_write.lefty: expected a node name or id 1..127, got 'lefty' (did you mean 'left'?); "

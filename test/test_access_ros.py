@@ -33,6 +33,7 @@ EXPLICIT = {
     'param_read': False,
     'param_write': False,
     'param_save': [AKD],
+    'safety_objects': {BASE: ['0x1017']},  # the heartbeat time is a safety object: named to be written
 }
 
 

@@ -51,7 +51,7 @@ def test_unknown_key_lists_allowed_keys_and_suggests_the_closest(tmp_path: Path)
         'scale_vel_from_dev, scale_vel_to_dev, velocity_scale']
     top = problems(tmp_path, 'node: {}\nnodes: {}\n')
     assert top == ["drives.yaml: node: unknown key (did you mean 'nodes'?); allowed keys: access, bus, defaults, "
-                   'master, nodes, options, record, simulation']
+                   'master, nodes, options, record, simulation, trajectory']
 
 
 def test_wrong_types(tmp_path: Path) -> None:
@@ -490,7 +490,7 @@ def test_empty_file_and_not_a_mapping(tmp_path: Path) -> None:
         'drives.yaml: nodes: required key is missing; expected a mapping of node name -> node section']
     assert problems(tmp_path, '- a\n- b\n') == [
         'drives.yaml: expected a mapping with the sections bus, master, options, defaults, nodes, simulation, '
-        'access, record, got a list']
+        'access, record, trajectory, got a list']
 
 
 def test_missing_config_file(tmp_path: Path) -> None:

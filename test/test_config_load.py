@@ -86,9 +86,10 @@ def test_physical_scaling_factors(complete: BusConfig) -> None:
 
 def test_limits_and_homing(complete: BusConfig) -> None:
     pan, lift = complete.node('shoulder').axes
-    assert dataclasses.astuple(pan.limits) == (-3.0, 3.0, 2.0, 10.0, 200.0, ())  # (): no key TODO
+    assert dataclasses.astuple(pan.limits)[:5] == (-3.0, 3.0, 2.0, 10.0, 200.0)
+    assert (pan.limits.on_violation, pan.limits.todo) == ('halt', ())  # (): no key TODO
     assert dataclasses.astuple(pan.homing) == (35, 0.2, 0.05, 1.0, 0.25)
-    assert dataclasses.astuple(lift.limits) == (-1.5, 1.5, None, None, None, ())
+    assert dataclasses.astuple(lift.limits)[:5] == (-1.5, 1.5, None, None, None) and not lift.limits.todo
     assert lift.homing.method is None
     assert pan.where == f'{COMPLETE}: nodes.shoulder.axes[0]'
 

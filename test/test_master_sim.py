@@ -87,11 +87,13 @@ def test_each_axis_moves_in_pp_pv_csp_and_csv(joint: str) -> None:
         assert axis.snapshot().position == pytest.approx(p0 + rate * 0.5, abs=0.01 * span)
         assert abs(drive.following_error) < 20000  # inside the following error window (0x6065)
 
-        # cyclic synchronous velocity
+        # cyclic synchronous velocity: a trapezoid within the drive's max acceleration (0x60C5,
+        # the joint's limit; a step would be refused by the cycle check)
         axis.set_mode('csv')
         before = axis.snapshot().position
         t0 = time.time()
-        axis.set_setpoint_source(lambda t: Setpoint(velocity=-rate if t - t0 < 0.5 else 0.0))
+        axis.set_setpoint_source(lambda t: Setpoint(
+            velocity=-rate * max(0.0, min(1.0, (t - t0) / 0.1, (0.6 - (t - t0)) / 0.1))))
         time.sleep(0.8)
         moved = axis.snapshot().position - before
         assert moved == pytest.approx(-rate * 0.5, rel=0.15)
@@ -111,7 +113,7 @@ def test_injected_fault_is_decoded_and_reset_on_the_rising_edge() -> None:
         eventually(lambda: axis.snapshot().state is State.FAULT, 2.0, 'FAULT state')
         snapshot = axis.snapshot()
         assert snapshot.fault and snapshot.last_emcy is not None and snapshot.last_emcy.code == 0x2310
-        with pytest.raises(AxisError, match='reset the fault first') as refused:
+        with pytest.raises(AxisError, match='clear it with ~/fault_reset') as refused:
             axis.enable(timeout=0.5)
         assert 'continuous over-current' in str(refused.value)
         axis.reset_fault(timeout=2.0)

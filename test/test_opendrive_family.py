@@ -261,7 +261,10 @@ def test_lost_while_silent_then_back_with_run_low_and_references_zero() -> None:
         eventually(lambda: not axis.feedback()[0], 2.0, 'the joint unavailable')
         assert time.monotonic() - silent < 0.15 + 0.5  # life time 150 ms, plus polling on a busy machine
         assert axis.drive_state is DriveState.UNAVAILABLE
-        assert drive.running  # the drive itself does nothing when the master goes (the appendix's default)
+        # the drive itself does nothing when the master goes (the appendix's default) and still sends
+        # its TPDOs: the bridge keeps sending its stop (RUN low, references 0) until it is at rest
+        eventually(lambda: not drive.running, 2.0, 'the drive stopped by the bridge')
+        assert rpdos(sniffer)[-1] == (0, 0, 0)
         mark = sniffer.mark
         drive.stop_guarding_replies(False)
         eventually(lambda: node.available, 10.0, 'configured again')
@@ -499,7 +502,8 @@ def test_fault_reset_fails_naming_the_alarm_while_its_cause_persists() -> None:
         eventually(lambda: rpdos(sniffer)[-1] == (0, 0, 0), 1.0, 'RUN dropped on the alarm')
         snapshot = axis.snapshot()
         assert snapshot.fault and snapshot.message.startswith('alarm A3 overcurrent')
-        with pytest.raises(JointError, match='in fault, alarm A3 overcurrent'):
+        refusal = r'in fault \(last EMCY 0x1000 alarm A3 overcurrent at .*; alarm A3 overcurrent \(0x2018 = .*~/recover'
+        with pytest.raises(JointError, match=refusal):
             axis.enable(timeout=0.5)
         mark = sniffer.mark
         with pytest.raises(JointError, match=r'fault reset failed: alarm A3 overcurrent still active .*cause persists'):

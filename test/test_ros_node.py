@@ -145,8 +145,9 @@ def test_direct_position_velocity_and_effort_commands(ros: RosHarness, bridge: B
     node = ros.node('commander')
     commands = node.create_publisher(Float64MultiArray, f'{NS}/commands', 10)
     targets = [start[j] + (0.02 if j != 'lift_joint' else 0.005) for j in JOINTS]
-    for _ in range(25):  # a stream, as a forward_command_controller sends it
-        commands.publish(Float64MultiArray(data=targets))
+    for k in range(1, 26):  # a stream, as a forward_command_controller sends it: a ramp (a step the
+        ramp = min(1.0, k / 10)  # limits do not allow in one cycle is refused)
+        commands.publish(Float64MultiArray(data=[start[j] + ramp * (t - start[j]) for j, t in zip(JOINTS, targets)]))
         time.sleep(0.02)
     time.sleep(0.2)
     for joint, target in zip(JOINTS, targets):
@@ -156,9 +157,10 @@ def test_direct_position_velocity_and_effort_commands(ros: RosHarness, bridge: B
     assert call(ros, SetMode, f'{NS}/set_mode', joints=['base_joint'], mode='cst').success
     joint_commands = node.create_publisher(JointState, f'{NS}/joint_commands', 10)
     before = latest_positions(states)['lift_joint']
-    for _ in range(25):  # topic_based_ros2_control style: every field, the mode picks one
+    for k in range(1, 26):  # topic_based_ros2_control style: every field, the mode picks one (velocity
+        ramp = min(1.0, k / 10)  # ramped within the lift's acceleration limit, from its drive's 0x60C5)
         joint_commands.publish(JointState(name=['lift_joint', 'base_joint'], position=[math.nan, math.nan],
-                                          velocity=[0.05, math.nan], effort=[math.nan, 0.3]))
+                                          velocity=[0.05 * ramp, math.nan], effort=[math.nan, 0.3]))
         time.sleep(0.02)
     last = states.messages[-1]
     velocity = dict(zip(last.name, last.velocity))
@@ -264,7 +266,7 @@ def test_injected_fault_shows_as_emcy_axis_state_and_diagnostics_then_recovers(
     assert any(kv.key == 'last_emcy' and '0x2310' in kv.value for kv in node_status.values)
 
     refused = call(ros, AxisCommand, f'{NS}/enable', joints=['base_joint'])
-    assert not refused.success and 'reset the fault first' in refused.message
+    assert not refused.success and 'clear it with ~/fault_reset' in refused.message
     recovered = call(ros, AxisCommand, f'{NS}/recover', joints=['base_joint'])
     assert recovered.success, recovered.message
     assert bridge.simulation.drive(2).axis(0).state is State.OPERATION_ENABLED

@@ -112,7 +112,7 @@ def test_a_feedback_fault_on_axis_states_and_fault_reset_restarts_the_drive(benc
     emcy = wait_for(lambda: [e for e in bench.emcys if e.error_code == 0x7303], 3, 'the EMCY')[0]
     assert emcy.severity == 'error' and emcy.joint_name == 'x_joint' and 'category 1' in emcy.text
     refused = bench.axis('enable', 'x_joint')
-    assert not refused.success and 'reset the fault first' in refused.message
+    assert not refused.success and 'clear it with ~/fault_reset' in refused.message
     done = bench.axis('fault_reset', 'x_joint', timeout=10.0)
     assert done.success, done.message
     assert drive.boot_messages == 2  # restarted

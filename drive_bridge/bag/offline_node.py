@@ -82,6 +82,9 @@ class OfflineNode:
     def add_input_listener(self, listener: Callable[[frozenset[ObjectKey], float], None]) -> None:
         self.process.add_input_listener(listener)
 
+    def report_setpoint_refused(self, joint: str, text: str) -> None:
+        """A replayed cycle sends nothing: there is no one to tell."""
+
     # recorded frames --------------------------------------------------------------------
     def on_rpdo(self, cob_id: int, data: bytes) -> None:
         layout = self.rpdo_layouts[cob_id]

@@ -16,15 +16,20 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402 import objects as obj, statemachine as sm
+from drive_bridge.cia402.drive_limits import describe, with_drive_limits
 from drive_bridge.cia402.modecontrol import PP_IDLE, AxisError, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, SetpointSource
+from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.position_loop import PositionLoop
+from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
 
 HOLD_COMMAND = {
@@ -48,6 +53,10 @@ DRIVE_STATE = {
     State.FAULT_REACTION_ACTIVE: DriveState.STOPPING,
     State.FAULT: DriveState.FAULT,
 }
+
+
+def _sdo_number(value: int | float | str | bytes) -> int | None:
+    return None if isinstance(value, (str, bytes)) else int(value)
 
 
 class Axis(ModeControl):
@@ -106,6 +115,12 @@ class Axis(ModeControl):
         self._written: dict[tuple[int, int], int | float] = {}
         self._controlword = 0
         self._message = ''
+        self._guard = SetpointGuard(cycle_period)
+        self._pvt_guard = SetpointGuard(0.0)
+        self._pvt_clock = 0.0
+        self._setpoint_refused = ''
+        self._configured_limits = config.limits
+        self._limits_said = ''
         self._reset_emcy_count = 0
         self.supported_modes: int | None = None  # 0x6502, read on the first mode change
         # the drive family's list, when 0x6502 under-reports
@@ -220,6 +235,7 @@ class Axis(ModeControl):
                 self._source = None
                 self._feeder = None
                 self._ip_point = None
+                self._guard.forget()
                 self._message = 'inputs stale: held by quick stop; enable it again to move'
                 self._cond.notify_all()
             self._controlword = sm.CMD_QUICK_STOP | sm.CW_HALT
@@ -249,6 +265,7 @@ class Axis(ModeControl):
             self._ip_point = None
             self._loop_target = None
             self._pp_phase = PP_IDLE
+            self._guard.forget()
             self._message = 'node configured again: enable the axis to move it'
             self._cond.notify_all()
 
@@ -298,7 +315,7 @@ class Axis(ModeControl):
     def _go_to(self, target: State, timeout: float | None) -> None:
         self._require_available()
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
-            raise AxisError(f'{self._where()}: in {self.state.label}{self._fault_text()}; reset the fault first')
+            raise AxisError(f'{self._where()}: {self.fault_description()}')
         with self._cond:
             self._target_state = target
         wait = timeout if timeout is not None else self.timeouts.state_switch * 4
@@ -314,6 +331,17 @@ class Axis(ModeControl):
     def enable(self, timeout: float | None = None) -> None:
         """Walk to OPERATION ENABLED (shutdown, switch on, enable operation)."""
         self._go_to(State.OPERATION_ENABLED, timeout)
+        self._clear_refusal()
+
+    def _clear_refusal(self) -> None:
+        with self._cond:
+            if self._setpoint_refused and self._message == self._setpoint_refused:
+                self._message = ''
+            self._setpoint_refused = ''
+
+    def _quick_stop_from_cycle(self) -> None:
+        """The cycle's own quick stop (a refused set-point): no wait, the cycle walks there."""
+        self._target_state = State.QUICK_STOP_ACTIVE
 
     def disable(self, timeout: float | None = None) -> None:
         """Disable operation: SWITCHED ON, power stage kept (brake engages on most drives)."""
@@ -342,6 +370,8 @@ class Axis(ModeControl):
             self._halt = on
             if on:
                 self._source = None
+        if not on:
+            self._clear_refusal()
 
     def reset_fault(self, timeout: float | None = None) -> None:
         """Fault reset on the rising edge of bit 7; fails if the fault persists."""
@@ -360,6 +390,43 @@ class Axis(ModeControl):
                 self._fault_reset_phase = 0
             raise AxisError(f'{exc}; the cause is still present{self._fault_text()}') from None
         self._reset_emcy_count = len(self.node.emcy_history())
+
+    def on_booted(self) -> str:
+        """After each boot (boot thread): settle the mode (0x6502) and the limits (the drive's
+        own where the config gives none); the start-up lines, the limits only when they changed."""
+        lines = [self._settle_mode()]
+        try:
+            limits = with_drive_limits(self.node, self.config, self._configured_limits)
+        except DriveBridgeError as exc:
+            limits = self._configured_limits
+            lines.append(f'{self._where()}: drive limits not read ({exc}); the configured ones apply')
+        with self._cond:
+            self.config = replace(self.config, limits=limits)
+            self._loop = None  # rebuilt with these limits
+            self._stop_deceleration = None
+        said = describe(self.joint, limits)
+        if said != self._limits_said:
+            self._limits_said = said
+            lines.append(said)
+        return '; '.join(line for line in lines if line)
+
+    def fault_description(self) -> str:
+        """The last EMCY and the drive's error code 0x603F (mapped, else read by SDO), the way out."""
+        details = []
+        code = self._value('error_code') if self.node.has_object(*self.key['error_code']) else None
+        if code is None and self.node.has_object(*self.key['error_code']):
+            try:
+                code = _sdo_number(self.node.sdo_read(*self.key['error_code']))
+            except DriveBridgeError:
+                code = None
+        if code:
+            details.append(f'0x603F error code 0x{int(code):04X}')
+        return fault_refusal(self.last_emcy(), details)
+
+    def _way_out(self) -> str:
+        if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+            return self.fault_description()
+        return 'enable it first (~/enable)'
 
     # -- state ------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:
@@ -401,6 +468,7 @@ class Axis(ModeControl):
             following_error=(bool(sw & sm.SW_OMS_13)
                              and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),
             halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
+            setpoint_refused=self._setpoint_refused,
             message=(self.node.boot_error if not self.node.available and self.node.boot_error else '')
             or self._message or self._mode_problem or (
                 'velocity estimated from position (no PDO carries 0x606C)' if self.config.estimated_velocity else ''))

@@ -24,6 +24,7 @@ from drive_bridge.cia402.modes import (
     parse_mode,
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
+from drive_bridge.cia402.setpoint_check import SetpointChecks, SetpointRefused, check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
@@ -46,7 +47,7 @@ class AxisError(JointError):
     """An intent on a CiA 402 axis that could not be carried out; the message says why."""
 
 
-class ModeControl:
+class ModeControl(SetpointChecks):
     """Modes of operation of one axis: profile position handshake, homing, interpolated
     position (linear and the family's PVT), cyclic set-points with the command dead-man."""
 
@@ -148,12 +149,15 @@ class ModeControl:
                 self._ip_point = None
                 self._loop_target = None
                 self._stale = False
-            return hold if not self._targets else {**hold, **self._targets}
+            written = hold if not self._targets else {**hold, **self._targets}
+            seed_hold(self._guard, self.config, written, now)
+            return written
         if self._source is not None:
             setpoint = self._source(now)
             if setpoint is not None:
                 self._apply_setpoint(setpoint)
         looped = self._loop_target is not None and self._looped()
+        stale = self._stale
         if (mode in CYCLIC_MODES or looped) and self._last_command and \
                 time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
             self._stale = True
@@ -166,6 +170,12 @@ class ModeControl:
                 self._targets['target_position'] = int(actual)
         if looped and actual is not None:
             self._close_loop(actual)
+        if self._stale and not stale:  # the dead-man holds where the drive is: no step to check
+            seed_hold(self._guard, self.config, self._targets, now)
+        else:
+            problem = check_targets(self._guard, self.config, mode, looped, self._targets, self._ip_point, now)
+            if problem is not None:
+                self._refuse_setpoint(problem, actual)
         return dict(self._targets)
 
     def _close_loop(self, actual: int | float) -> None:
@@ -194,6 +204,7 @@ class ModeControl:
         if setpoint.position is not None and self._looped():
             if self._loop_target is None and self._loop is not None:
                 self._loop.reset(self._actual_velocity())
+                self._guard.rebase('velocity', self._actual_velocity())
             self._loop_target = (setpoint.position, setpoint.velocity or 0.0)
             self._last_command = time.monotonic()
             self._stale = False
@@ -225,7 +236,7 @@ class ModeControl:
             raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not supported by the drive '
                             f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
 
-    def on_booted(self) -> str:
+    def _settle_mode(self) -> str:
         """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
         configured one, or the best the drive can stream when the config names none); returns
         the start-up line saying which and why ('' when the family decides the modes)."""
@@ -263,6 +274,16 @@ class ModeControl:
         self._check_supported(code)
         if code == Mode.INTERPOLATED_POSITION:
             self._prepare_interpolation()
+        previous = self._mode
+        self._request_mode(code)
+        wait = timeout if timeout is not None else self.timeouts.mode_switch
+        try:
+            self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+        except AxisError as exc:
+            raise AxisError(f'{exc}; {self._restore_mode(previous, code)}') from None
+        self._mode_problem = ''  # the drive took it
+
+    def _request_mode(self, code: int) -> None:
         with self._cond:
             if code != self._mode:
                 self._targets.clear()
@@ -272,9 +293,22 @@ class ModeControl:
                 self._loop_target = None
                 self._pp_phase = PP_IDLE
             self._mode = code
-        wait = timeout if timeout is not None else self.timeouts.mode_switch
-        self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
-        self._mode_problem = ''  # the drive took it
+
+    def _restore_mode(self, previous: int, refused: int) -> str:
+        """A mode the drive did not confirm: the previous one is requested again; if the drive
+        does not confirm that either, the axis is halted (the mode it runs is unknown)."""
+        self._request_mode(previous)
+        try:
+            self._wait(lambda: self._value('mode_display') == previous, self.timeouts.mode_switch,
+                       f'previous mode {mode_name(previous)} (0x6061)')
+        except AxisError:
+            with self._cond:
+                self._halt = True
+                self._message = (f'mode {mode_name(refused)} not confirmed and the previous mode '
+                                 f'{mode_name(previous)} not either (0x6061 = {self._value("mode_display")}): '
+                                 'axis held (HALT)')
+            return f'the previous mode {mode_name(previous)} was not confirmed either: axis held (HALT)'
+        return f'the previous mode {mode_name(previous)} is restored'
 
     def _write_interpolation_period(self, interpolated: bool) -> None:
         """The SYNC period into 0x60C2 (CSP and IP interpolate over it), and for IP the
@@ -313,17 +347,23 @@ class ModeControl:
                 self.node.sdo_write(*self.key['ip_clear'], value)
 
     def stop_deceleration(self) -> float:
-        """Deceleration (SI, > 0) for a controlled stop: the joint's max_acceleration limit,
-        else the drive's profile deceleration 0x6084 (read once), else 1 unit/s^2."""
+        """Deceleration (SI, > 0) for a controlled stop: the joint's configured max_acceleration,
+        else the drive's profile deceleration 0x6084 (read once; within the drive's own maximum),
+        else that maximum, else 1 unit/s^2."""
         if self._stop_deceleration is None:
-            value = self.config.limits.max_acceleration
+            limits = self.config.limits
+            # the configured limit; one read from the drive's maximum (0x60C5) only caps its profile's
+            configured = limits.sources.get('max_acceleration', 'config') == 'config'
+            value = limits.max_acceleration if configured else None
             key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
             if value is None and self.node.has_object(*key):
                 try:
                     value = abs(_number(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)
                 except Exception:
                     value = None
-            self._stop_deceleration = value if value else 1.0
+            if value and limits.max_acceleration:
+                value = min(value, limits.max_acceleration)
+            self._stop_deceleration = value if value else (limits.max_acceleration or 1.0)
         return self._stop_deceleration
 
     def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
@@ -346,6 +386,8 @@ class ModeControl:
         position, sent together this cycle; the drive buffers it at the next SYNC."""
         if self.pvt is None:
             raise AxisError(f'{self._where()}: the drive family has no PVT interpolation')
+        if not self._pvt_point_allowed(position, time_units, velocity):
+            return
         self.node.write(*self.pvt.velocity, velocity)
         self.node.write(*self.pvt.time, time_units)
         self.node.write(*self.pvt.position, position)
@@ -407,7 +449,11 @@ class ModeControl:
         if not self.node.available:
             raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
         if self.state is not State.OPERATION_ENABLED:
-            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; enable it first')
+            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; {self._way_out()}')
+        try:
+            self._check_step(position, velocity)
+        except SetpointRefused as exc:
+            raise AxisError(str(exc)) from None
 
     def command(self, position: float | None = None, velocity: float | None = None,
                 effort: float | None = None) -> None:

@@ -9,18 +9,29 @@ node names and ids. Node keys are YAML integers, so this section reads raw mappi
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
 
 from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.reader import Section, describe, parse_int_text, suggestion
-from drive_bridge.model import EVERY_OBJECT, AccessConfig, NodeRule, ObjectRange, ObjectRule
+from drive_bridge.model import (
+    EVERY_OBJECT,
+    AccessConfig,
+    NodeRule,
+    ObjectRange,
+    ObjectRule,
+    SafetyAllowance,
+    safety_name,
+)
 
-ACCESS = ('read_only', 'sdo_read', 'sdo_write', 'store_restore', 'nmt', 'param_read', 'param_write', 'param_save')
+ACCESS = ('read_only', 'sdo_read', 'sdo_write', 'store_restore', 'nmt', 'param_read', 'param_write', 'param_save',
+          'safety_objects')
 OBJECT_RULES = ('sdo_read', 'sdo_write')
 NODE_RULES = ('store_restore', 'nmt', 'param_read', 'param_write', 'param_save')
 WRITE_RULES = ('sdo_write', 'store_restore', 'nmt', 'param_write', 'param_save')
 _RANGE = re.compile(r'^\s*(\w+)\s*(?:-\s*(\w+)\s*)?$')
+T = TypeVar('T')
+SafetyItems = tuple[tuple[ObjectRange, ...], frozenset[str]]  # objects and parameter names
 _RANGE_HINT = 'an index (0x6040) or a range "0x6000-0x6FFF"'
 
 
@@ -70,22 +81,28 @@ def _node_id(issues: Issues, key: Any, loc: Loc, ids: Mapping[str, int]) -> int 
     return None
 
 
-def _object_rule(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int], base: ObjectRule) -> ObjectRule:
-    if not isinstance(value, Mapping):
-        return ObjectRule(_ranges(issues, value, loc), given=True)
-    default = base.default
-    nodes: dict[int, tuple[ObjectRange, ...]] = {}
+def _per_node(issues: Issues, value: Mapping[Any, Any], loc: Loc, ids: Mapping[str, int],
+              parse: Callable[[Issues, Any, Loc], T], default: T) -> tuple[T, dict[int, T]]:
+    """A mapping of node (name or id) -> item, with ``default`` for the others."""
+    nodes: dict[int, T] = {}
     for key, item in value.items():
         where = loc.key(key)
         if key == 'default':
-            default = _ranges(issues, item, where)
+            default = parse(issues, item, where)
             continue
         node_id = _node_id(issues, key, where, ids)
         if node_id is None:
             continue
         if node_id in nodes:
             issues.error(where, f'node {node_id} is given twice (by name and by id)')
-        nodes[node_id] = _ranges(issues, item, where)
+        nodes[node_id] = parse(issues, item, where)
+    return default, nodes
+
+
+def _object_rule(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int], base: ObjectRule) -> ObjectRule:
+    if not isinstance(value, Mapping):
+        return ObjectRule(_ranges(issues, value, loc), given=True)
+    default, nodes = _per_node(issues, value, loc, ids, _ranges, base.default)
     return ObjectRule(default, nodes, given=True)
 
 
@@ -103,6 +120,45 @@ def _node_rule(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int]) -> 
     return NodeRule(node_ids=frozenset(n for n in found if n is not None), given=True)
 
 
+def _is_range(text: str) -> bool:
+    match = _RANGE.match(text)
+    return match is not None and _index(match.group(1)) is not None and (
+        match.group(2) is None or _index(match.group(2)) is not None)
+
+
+def _safety_items(issues: Issues, value: Any, loc: Loc) -> SafetyItems:
+    """Indices and ranges (objects) and vendor parameter names, mixed in one list."""
+    if value is False or value is None:
+        return (), frozenset()
+    if not isinstance(value, list):
+        issues.error(loc, f'expected a list of object indices ("0x6007"), ranges and vendor parameter names '
+                          f'("p8641"), or true/false, got {describe(value)}')
+        return (), frozenset()
+    ranges: list[ObjectRange] = []
+    names: set[str] = set()
+    for i, item in enumerate(value):
+        if isinstance(item, str) and not _is_range(item):
+            if not item.strip():
+                issues.error(loc.item(i), 'expected an object index or a parameter name, got an empty string')
+            else:
+                names.add(safety_name(item))
+            continue
+        found = _range(issues, item, loc.item(i))
+        if found is not None:
+            ranges.append(found)
+    return tuple(ranges), frozenset(names)
+
+
+def _safety(issues: Issues, value: Any, loc: Loc, ids: Mapping[str, int]) -> SafetyAllowance:
+    if value is True:
+        return SafetyAllowance(every=True)
+    if not isinstance(value, Mapping):
+        return SafetyAllowance(default=_safety_items(issues, value, loc))
+    nothing: SafetyItems = ((), frozenset())
+    default, nodes = _per_node(issues, value, loc, ids, _safety_items, nothing)
+    return SafetyAllowance(default=default, nodes=nodes)
+
+
 def parse_access(sec: Section | None, ids: Mapping[str, int]) -> AccessConfig:
     """The ``access`` section (None: the defaults); ``ids``: configured node name -> id."""
     base = AccessConfig()
@@ -116,6 +172,8 @@ def parse_access(sec: Section | None, ids: Mapping[str, int]) -> AccessConfig:
     for key in NODE_RULES:
         if key in sec:
             rules[key] = _node_rule(sec.issues, sec.get(key), sec.loc(key), ids)
+    if 'safety_objects' in sec:
+        rules['safety_objects'] = _safety(sec.issues, sec.get('safety_objects'), sec.loc('safety_objects'), ids)
     if rules['read_only']:
         for key in WRITE_RULES:
             if key in sec:

@@ -150,10 +150,13 @@ def _limits(sec: Section | None, todo: list[str]) -> AxisLimits:
     if low is not None and high is not None and low >= high:
         sec.issues.error(sec.loc('max_position'),
                          f'expected a number > min_position ({low:g}), got {describe(sec.get("max_position"))}')
-    return AxisLimits(min_position=low, max_position=high,
-                      max_velocity=sec.get_number('max_velocity', gt=0),
-                      max_acceleration=sec.get_number('max_acceleration', gt=0),
-                      max_effort=sec.get_number('max_effort', gt=0), todo=tuple(todo))
+    values = dict(min_position=low, max_position=high,
+                  max_velocity=sec.get_number('max_velocity', gt=0),
+                  max_acceleration=sec.get_number('max_acceleration', gt=0),
+                  max_effort=sec.get_number('max_effort', gt=0))
+    reaction = sec.get_str('on_violation', 'halt', keys.VIOLATION_REACTIONS) or 'halt'
+    return AxisLimits(**values, on_violation=reaction, todo=tuple(todo),
+                      sources={key: 'config' for key, value in values.items() if value is not None})
 
 
 def _position_loop(sec: Section | None, family: DriveFamily) -> PositionLoopConfig:

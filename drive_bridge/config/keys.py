@@ -2,13 +2,14 @@
 with a warning. One place, so docs/configuration.md and the checks agree."""
 from __future__ import annotations
 
-TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation', 'access', 'record')
+TOP = ('bus', 'master', 'options', 'defaults', 'nodes', 'simulation', 'access', 'record', 'trajectory')
 BUS = ('interface', 'channel', 'bitrate', 'options', 'allow_overload')
 OPTIONS = ('dcf_path', 'heartbeat_multiplier')
 MASTER = ('node_id', 'sync_period', 'sync_producer', 'heartbeat_producer', 'heartbeat_consumer',
           'heartbeat_multiplier', 'baudrate', 'sync_window', 'realtime_priority')
 SIMULATION = ('enabled', 'nodes')
 RECORD = ('path', 'split_size_mb', 'split_seconds', 'start')
+TRAJECTORY = ('scale_to_limits',)
 
 _ROS_COMPONENT = 'ros2_canopen component setting; drive_bridge runs no ros2_canopen components'
 _LELY_MASTER = 'lely master DCF setting; drive_bridge configures its master from this file itself'
@@ -55,7 +56,8 @@ POSITION_LOOP = ('gain', 'following_error')
 PHYSICAL_SCALING = ('counts_per_revolution', 'counts_per_metre', 'gear_ratio', 'direction', 'offset',
                     'velocity_scale', 'rated_torque')
 SCALING = PHYSICAL_SCALING + LINEAR_SCALING
-LIMITS = ('min_position', 'max_position', 'max_velocity', 'max_acceleration', 'max_effort')
+LIMITS = ('min_position', 'max_position', 'max_velocity', 'max_acceleration', 'max_effort', 'on_violation')
+VIOLATION_REACTIONS = ('halt', 'quick_stop')
 # a placeholder value of a starter config: the key (or whole scaling/limits section, or dcf) is
 # still to be filled; `scaling: none` declines scaling (device units) on purpose
 TODO = 'TODO'

@@ -17,7 +17,7 @@ from drive_bridge.config.errors import Issues, Loc
 from drive_bridge.config.nodes import NodeContext, NodeDraft, parse_node, resolve_dir
 from drive_bridge.config.pdo import check_cob_ids
 from drive_bridge.config.reader import Section, describe, suggestion
-from drive_bridge.config.record import parse_record
+from drive_bridge.config.record import parse_record, parse_trajectory
 from drive_bridge.config.yamlio import parse_yaml, read_yaml
 from drive_bridge.model import BusConfig, BusInterface, MasterConfig, SimulationConfig
 from drive_bridge.transport import INTERFACES
@@ -204,6 +204,7 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
     simulation = _simulation(root.section('simulation'), names, bus)
     access = parse_access(root.section('access'), {d.name: d.node_id for d in drafts if d.node_id is not None})
     record = parse_record(root.section('record'))
+    trajectory = parse_trajectory(root.section('trajectory'))
     nodes = tuple(d.config for d in drafts if d.config is not None)
     if not issues.error_count:
         warning, error = budget_verdict(bus_budget(bus.bitrate, master, nodes), allow_overload)
@@ -213,6 +214,7 @@ def parse_bus_config(data: Mapping[str, Any], source: str, base_dir: Path,
             issues.warn(Loc('bus'), warning)
     issues.raise_if_errors()
     return BusConfig(bus=bus, master=master, nodes=nodes, simulation=simulation, access=access, record=record,
+                     trajectory=trajectory,
                      path=path, warnings=issues.warning_texts(), allow_overload=allow_overload)
 
 

@@ -1,9 +1,10 @@
-"""The ``record`` section: where and how the bridge records the bus (rosbag2 MCAP)."""
+"""The ``record`` section (where and how the bridge records the bus, rosbag2 MCAP) and the
+``trajectory`` section (trajectories beyond the limits)."""
 from __future__ import annotations
 
 from drive_bridge.config import keys
 from drive_bridge.config.reader import Section
-from drive_bridge.model import RecordConfig
+from drive_bridge.model import RecordConfig, TrajectoryConfig
 
 
 def parse_record(sec: Section | None) -> RecordConfig:
@@ -19,3 +20,10 @@ def parse_record(sec: Section | None) -> RecordConfig:
         split_size_mb=sec.get_number('split_size_mb', base.split_size_mb, ge=0) or 0.0,
         split_seconds=sec.get_number('split_seconds', base.split_seconds, ge=0) or 0.0,
         start=sec.get_bool('start', base.start))
+
+
+def parse_trajectory(sec: Section | None) -> TrajectoryConfig:
+    if sec is None:
+        return TrajectoryConfig()
+    sec.check_keys(keys.TRAJECTORY)
+    return TrajectoryConfig(scale_to_limits=sec.get_bool('scale_to_limits', False))

@@ -248,6 +248,10 @@ class Akd(DriveFamily):
 
     name = 'akd'
     description = 'Kollmorgen AKD servo drive (CANopen; PVT interpolation)'
+    vendor_safety_objects = {
+        0x36E5: 'FBUS.PARAM01, the CAN bit rate',
+        0x36E8: 'FBUS.PARAM04, SYNC supervision (F125 after 3 missing SYNCs)',
+    }
     default_eds = DATA_DIR / 'akd.eds'
     has_cia402 = True
     max_axes = 1

@@ -89,6 +89,9 @@ FLUSH = '~'  # makes a partial command left by a failed transaction invalid
 SAVE_COMMAND = 'DRV.NVSAVE'
 # commands that store or reload the parameters (0x1010 / 0x1011 do the same, akd.md §9.11)
 STORE_COMMANDS = frozenset({SAVE_COMMAND, 'DRV.NVLOAD'})
+# the parameters that change the drive's link (node address, bit rate) or its master supervision
+SAFETY_PARAMETERS = {'FBUS.PARAM01': 'FBUS.PARAM01, the CAN bit rate',
+                     'FBUS.PARAM04': 'FBUS.PARAM04, SYNC supervision (F125 after 3 missing SYNCs)'}
 
 _INT_RANGES = {
     'i8': (-(1 << 7), (1 << 7) - 1), 'i16': (-(1 << 15), (1 << 15) - 1), 'i32': (-(1 << 31), (1 << 31) - 1),
@@ -256,6 +259,9 @@ class AkdParameters(ParameterAccess):
 
     def stores(self, name: str) -> bool:
         return name.strip().upper() in STORE_COMMANDS
+
+    def safety(self, name: str) -> str | None:
+        return SAFETY_PARAMETERS.get(name.strip().upper())
 
     def save(self, drive_object: int = 0) -> str:
         self._spec(SAVE_COMMAND, drive_object)

@@ -19,6 +19,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | which joint driver?              | ``create_joint_driver``                                |
 | vendor parameters?               | ``parameters``                                         |
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
+| which writes decide the reaction | ``safety_object`` (and ``ParameterAccess.safety``),    |
+| to a lost master or the link?    | ``runs_on_without_master``, ``stop_run_on``            |
 | defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
 | is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
 """
@@ -48,6 +50,17 @@ if TYPE_CHECKING:
 
 DATA_DIR = Path(__file__).resolve().parent / 'data'
 STORE_PARAMETERS = 0x1010  # CiA 301: store parameters ("save")
+# objects that decide how a node reacts to the loss of its master or that change its link
+# (CiA 301 / 402): closed to clients unless the bus config's access.safety_objects names them
+SAFETY_OBJECTS: Mapping[int, str] = {
+    0x6007: 'the abort connection option code (what the drive does when its master is lost)',
+    0x1005: 'the SYNC COB-ID',
+    0x100C: 'the guard time (node guarding)',
+    0x100D: 'the life time factor (node guarding)',
+    0x1016: 'the consumer heartbeat time (the drive watching its master)',
+    0x1017: 'the producer heartbeat time (the master watching the drive)',
+    0x1029: 'the error behaviour (what a communication error does)',
+}
 RESTORE_DEFAULT_PARAMETERS = 0x1011  # CiA 301: restore default parameters ("load")
 
 
@@ -311,6 +324,27 @@ class DriveFamily:
     def parameters(self, port: ParameterPort) -> ParameterAccess | None:
         """Access to the drive's own parameters by their vendor names (None: not offered)."""
         return None
+
+    def safety_object(self, config: NodeConfig | None, index: int, subindex: int) -> str | None:
+        """What this object decides when it is one of those that set how the drive reacts to the
+        loss of its master or that change its communication (node id, bit rate, SYNC, guarding,
+        heartbeat), else None. The ROS layer refuses client writes of such objects unless the bus
+        config's ``access.safety_objects`` names them. CiA 301/402 here (0x6007 of every axis);
+        a family adds its vendor objects (``vendor_safety_objects``)."""
+        base = index if index < 0x6000 else 0x6000 + (index - 0x6000) % obj.AXIS_OFFSET
+        return SAFETY_OBJECTS.get(base) or self.vendor_safety_objects.get(index)
+
+    # vendor objects that decide the reaction to a lost master or change the link: index -> what
+    vendor_safety_objects: ClassVar[Mapping[int, str]] = {}
+    # the drive keeps its last references when its master goes silent (no heartbeat consumer,
+    # no RPDO timeout, no action on a guarding loss): the bridge must stop it itself
+    runs_on_without_master: ClassVar[bool] = False
+
+    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
+        """A drive that runs on by itself (``runs_on_without_master``) whose master liveness is
+        lost while it still sends: put its stop into this cycle's process data (``by_sdo``: write it
+        by SDO too, supervisor thread); True once the drive reports it is at rest."""
+        return True
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """An SDO write of this object stores the node's parameters in non-volatile memory or

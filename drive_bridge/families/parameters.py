@@ -117,6 +117,13 @@ class ParameterAccess(ABC):
         the bridge treats such a write as a save (``~/param_save``'s rule). By default none does."""
         return False
 
+    def safety(self, name: str) -> str | None:
+        """What writing ``name`` changes when it decides how the drive reacts to the loss of its
+        master or changes its communication (node id, bit rate, guarding, heartbeat, SYNC), else
+        None: the bridge refuses such writes from clients unless ``access.safety_objects`` names
+        them. By default none does."""
+        return None
+
     def for_slot(self, slot: int) -> ParameterAccess:
         """This access as the joint in axis ``slot`` of the node sees it: ``drive_object`` 0 then
         means that joint's own drive object (a node with several). By default the same access."""

@@ -58,6 +58,7 @@ class AxisSnapshot:
     command_stale: bool  # the command dead-man is holding the axis
     last_emcy: EmcyEvent | None
     message: str
+    setpoint_refused: str = ''  # why the last cycle check refused a set-point and held the axis
 
     @property
     def state_label(self) -> str:

@@ -21,6 +21,8 @@ class EventKind(str, Enum):
     BUS_ERROR = 'bus_error'
     BUS_BACK = 'bus_back'
     UNKNOWN_FRAMES = 'unknown_frames'
+    RUN_ON_STOP = 'run_on_stop'  # a drive that runs on by itself is being stopped after a liveness loss
+    SETPOINT_REFUSED = 'setpoint_refused'  # the cycle's last check held an axis (joint in ``joint``)
     ERROR = 'error'
 
 
@@ -38,6 +40,7 @@ class BusEvent:
     node_id: int = 0
     node_name: str = ''
     timestamp: float = field(default_factory=time.time)
+    joint: str = ''  # the joint it concerns, where one
 
     def __str__(self) -> str:
         return self.message

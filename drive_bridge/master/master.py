@@ -37,6 +37,7 @@ from drive_bridge.master.guarding import GuardEventKind
 from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.realtime import SwitchInterval, make_realtime
+from drive_bridge.master.run_on import RunOnStop
 from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
 from drive_bridge.model import BusConfig
@@ -102,6 +103,8 @@ class Master:
         self.bus_down = False  # the bus failed (bus-off, interface errors) and has not come back
         self._last_reopen = 0.0
         self.bus_reopens = 0
+        self._run_on = RunOnStop(lambda node, level, text: self._emit(
+            EventKind.RUN_ON_STOP, Level.ERROR if level == 'error' else Level.WARN, text, node))
 
     # -- listeners ---------------------------------------------------------------------------
     def add_frame_listener(self, listener: FrameListener) -> None:
@@ -129,8 +132,9 @@ class Master:
         SYNC are in (CAN thread, keep it short); not in a cycle where one is missing."""
         self.feedback.add_listener(listener)
 
-    def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None) -> None:
-        event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '')
+    def _emit(self, kind: EventKind, level: Level, message: str, node: NodeRuntime | None = None,
+              joint: str = '') -> None:
+        event = BusEvent(kind, level, message, node.node_id if node else 0, node.name if node else '', joint=joint)
         self.events = [*self.events[-199:], event]
         if not self._event_listeners:  # a listener reports events itself: print each line once
             getattr(log, {'info': 'info', 'warn': 'warning', 'error': 'error'}[level.value])(message)
@@ -148,6 +152,9 @@ class Master:
                 listener(event)
             except Exception as exc:
                 log.error('EMCY listener failed: %r', exc)
+
+    def _setpoint_refused(self, node: NodeRuntime, joint: str, text: str) -> None:
+        self._emit(EventKind.SETPOINT_REFUSED, Level.ERROR, text, node, joint)
 
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -171,6 +178,7 @@ class Master:
                            f'node {node.node_id} ({node.name}): {node_cfg.pdo_summary}', node)
             node.attach_guard()
             node.sync_count = self._sync_count
+            node.on_setpoint_refused = functools.partial(self._setpoint_refused, node)
             for axis_cfg in node_cfg.axes:
                 period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
@@ -275,6 +283,12 @@ class Master:
     def _before_sync(self, cycle: int) -> None:
         now = self.sync.scheduled_time if self.sync is not None else time.time()
         for node in self.nodes.values():
+            if self._run_on.due(node):  # a drive that runs on by itself, lost while it sends: its stop
+                if node.family.stop_run_on(node.node_id, by_sdo=False):
+                    self._run_on.at_rest(node)
+                for cob_id, data in node.process.frames():
+                    self.network.send_message(cob_id, data)
+                continue
             if not node.available and node.boot_state is not BootState.STALE:
                 continue  # a stale node is still sent to: its axes are held by HALT
             axes = [self.axes[a.joint] for a in node.config.axes]
@@ -309,6 +323,11 @@ class Master:
                     self._check_heartbeat(node, now)
                     self._check_guarding(node, now)
                     self._check_freshness(node, now)
+                    if self._run_on.sdo_due(node):
+                        try:
+                            node.family.stop_run_on(node.node_id, by_sdo=True)
+                        except DriveBridgeError as exc:
+                            self._run_on.sdo_failed(node, exc)
                     if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:
                         self._start_boot(node)
                 except Exception as exc:  # the other nodes are still supervised

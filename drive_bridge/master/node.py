@@ -81,6 +81,8 @@ class NodeRuntime:
             network.subscribe(cob_id, self.process.on_tpdo)
         self.freshness = PdoFreshness(self.process.rx_layouts, self.process.rx_counts, master.sync_period)
         self.sync_count: Callable[[], int] = lambda: 0  # SYNCs sent so far (the master sets it)
+        # a joint driver refused a set-point (joint, text); the master reports it as an event
+        self.on_setpoint_refused: Callable[[str, str], None] = lambda _joint, _text: None
         self.worker = SdoWorker(self.sdo, lambda key, value, stamp: self.process.store(((key, value),), stamp),
                                 on_error=on_error)
         for key in config.polled:  # inputs no TPDO carries: read by SDO, off the cycle thread
@@ -247,6 +249,9 @@ class NodeRuntime:
 
     def add_input_listener(self, listener: Callable[[frozenset[ObjectKey], float], None]) -> None:
         self.process.add_input_listener(listener)
+
+    def report_setpoint_refused(self, joint: str, text: str) -> None:
+        self.on_setpoint_refused(joint, text)
 
     def stamp(self, index: int, subindex: int = 0) -> float:
         return self.process.input_stamps.get((index, subindex), 0.0)

@@ -6,7 +6,7 @@ A refusal is an :class:`AccessRefused` whose message starts with the service and
 """
 from __future__ import annotations
 
-from drive_bridge.families.interface import RESTORE_DEFAULT_PARAMETERS, STORE_PARAMETERS
+from drive_bridge.families.interface import RESTORE_DEFAULT_PARAMETERS, STORE_PARAMETERS, DriveFamily
 from drive_bridge.families.parameters import ParameterAccess
 from drive_bridge.master.master import Master
 from drive_bridge.model import AccessConfig, NodeRule, ObjectRule
@@ -63,9 +63,22 @@ class AccessGuard:
     def sdo_read(self, node_id: int, index: int, subindex: int) -> None:
         self._objects('sdo_read', 'sdo_read', node_id, index, subindex)
 
+    def _safety(self, service: str, node_id: int, what: str, reason: str | None, allowed: bool) -> None:
+        if reason is None or allowed:
+            return
+        raise _refuse(service, 'safety_objects',
+                      f'node {node_id} {what} is {reason}: it decides how the drive reacts when the bridge is lost '
+                      'or how it communicates, so clients may not change it; name it in access.safety_objects to '
+                      'allow it')
+
     def sdo_write(self, node_id: int, index: int, subindex: int) -> None:
         self._writable('sdo_write')
         self._objects('sdo_write', 'sdo_write', node_id, index, subindex)
+        node = self.master.node_by_id(node_id)
+        family = node.family if node is not None else DriveFamily()
+        self._safety('sdo_write', node_id, f'0x{index:04X}:{subindex:02X}',
+                     family.safety_object(node.config if node is not None else None, index, subindex),
+                     self.access.safety_objects.allows_object(node_id, index))
         if self._stores(node_id, index, subindex):
             self._node('sdo_write', 'store_restore', node_id,
                        f'0x{index:04X}:{subindex:02X} stores or restores parameters: store/restore on')
@@ -85,7 +98,10 @@ class AccessGuard:
             self._writable('param_write')
             if node_id in self.configured:
                 self._node('param_write', 'param_write', node_id, 'writing parameters of')
-        elif access.stores(name):
+        else:
+            self._safety('param_write', node_id, name.strip(), access.safety(name),
+                         self.access.safety_objects.allows_name(node_id, name))
+        if access is not None and access.stores(name):
             self._node('param_write', 'param_save', node_id,
                        f'{name.strip()} stores or restores parameters: saving on')
 

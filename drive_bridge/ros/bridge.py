@@ -16,6 +16,7 @@ from drive_bridge.joint import DriveState
 from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master
 from drive_bridge.model import BusConfig
+from drive_bridge.ros.callback_guard import failures_of
 from drive_bridge.ros.command_topics import CommandTopics
 from drive_bridge.ros.param_services import ParameterServices
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare
@@ -89,11 +90,15 @@ class Bridge:
             raise StartupError(f'cannot start bus {config.bus.interface}:{config.bus.channel}: {exc}') from None
         self.trajectories = TrajectoryExecutor(
             self.master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
-            pvt_segment=params.pvt_segment, pvt_lookahead=params.pvt_lookahead)
+            pvt_segment=params.pvt_segment, pvt_lookahead=params.pvt_lookahead,
+            scale_to_limits=config.trajectory.scale_to_limits)
         self.master.add_cycle_listener(self.trajectories.check)
         self.master.add_emcy_listener(self.trajectories.on_emcy, safety=True)
         self.state_topics = StateTopics(node, self.master, params)
         self.command_topics = CommandTopics(node, self.master, self.trajectories, params)
+        self.master.add_event_listener(self.command_topics.on_event)
+        # a guarded callback that failed is a refused command there too
+        failures_of(node).refuse = self.command_topics.refuse
         self.service_handlers = BridgeServices(node, self.master, self.trajectories)
         self.parameter_services = ParameterServices(node, self.master, self.service_handlers.pool)
         self.trajectory_action = TrajectoryAction(node, self.master, self.trajectories)

@@ -18,15 +18,17 @@ from trajectory_msgs.msg import JointTrajectory
 
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import JointError
+from drive_bridge.master.events import BusEvent, EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
+from drive_bridge.ros.message_checks import NonFinite, check_joint_commands, check_trajectory_points
 from drive_bridge.ros.message_limits import (
     MalformedMessage,
     MessageTooLarge,
     check_trajectory_bytes,
 )
 from drive_bridge.ros.parameters import BridgeParameters
-from drive_bridge.streaming.executor import TrajectoryExecutor
+from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
@@ -34,6 +36,16 @@ LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one top
 
 class CommandRefused(DriveBridgeError, ValueError):
     pass
+
+
+def log_accepted(node: Node, handle: TrajectoryHandle, points: int) -> None:
+    """One line per accepted trajectory, with what planning changed; what it could not check
+    (a joint without a velocity limit, naming the key) as a warning."""
+    notes = ''.join(f'; {note}' for note in handle.notes)
+    node.get_logger().info(f'trajectory {handle.id}: {points} point(s) for {", ".join(handle.joints)}, '
+                           f'{handle.end - handle.start:.3f} s{notes}')
+    for warning in handle.warnings:
+        node.get_logger().warning(f'trajectory {handle.id}: {warning}')
 
 
 class CommandTopics:
@@ -68,6 +80,11 @@ class CommandTopics:
             self._last_log[topic] = now
             self.node.get_logger().warning(text)
 
+    def on_event(self, event: BusEvent) -> None:
+        """A set-point the cycle refused (whatever produced it) is a refused command too."""
+        if event.kind is EventKind.SETPOINT_REFUSED:
+            self.errors.publish(String(data=f'cycle check: refused: {event.message}'))
+
     def _inactive(self, topic: str) -> bool:
         if not self.active:
             self.refuse(topic, 'the bridge is not active (deactivated or not configured)')
@@ -88,14 +105,17 @@ class CommandTopics:
             self.refuse(topic, str(MalformedMessage(f'not a trajectory_msgs/JointTrajectory: {exc}')))
             return
         try:
+            check_trajectory_points(msg.points)
+        except NonFinite as exc:
+            self.refuse(topic, str(exc))
+            return
+        try:
             handle = self.executor.submit(trajectory_from_msg(msg), topic)
         except TrajectoryError as exc:
             self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
             return
         if handle is not None:
-            self.node.get_logger().info(
-                f'trajectory {handle.id}: {len(msg.points)} point(s) for {", ".join(handle.joints)}, '
-                f'{handle.end - handle.start:.3f} s')
+            log_accepted(self.node, handle, len(msg.points))
 
     # -- direct commands -------------------------------------------------------------------------
     def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:
@@ -139,6 +159,11 @@ class CommandTopics:
             if values and len(values) != len(msg.name):
                 self.refuse(topic, f'{len(values)} {field} value(s) for {len(msg.name)} name(s)')
                 return
+        try:
+            check_joint_commands(msg.name, {f: getattr(msg, f) for f in ('position', 'velocity', 'effort')})
+        except NonFinite as exc:
+            self.refuse(topic, str(exc))
+            return
         commands: dict[str, dict[str, float | None]] = {}
         for i, joint in enumerate(msg.name):
             wanted = self.master.axes[joint].command_field()

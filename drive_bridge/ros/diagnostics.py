@@ -77,6 +77,8 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     elif axis.drive_state is DriveState.FAULT or (axis.fault and axis.drive_state is DriveState.STOPPING):
         emcy = f': 0x{axis.last_emcy.code:04X} {axis.last_emcy.text}' if axis.last_emcy else ''
         status.level, status.message = ERROR, f'{axis.state_label}{emcy}'
+    elif axis.setpoint_refused:
+        status.level, status.message = ERROR, axis.setpoint_refused
     elif axis.command_stale or axis.warning:
         status.level = WARN
         status.message = axis.message if axis.command_stale else f'{axis.state_label}, drive warning bit set'

@@ -11,10 +11,11 @@ from __future__ import annotations
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from drive_bridge.ros.bridge import Bridge, StartupError, configuration
+from drive_bridge.ros.callback_guard import GuardedCallbacks
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare, read, watch
 
 
-class BusLifecycleNode(LifecycleNode):
+class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
     """The bus node with the standard lifecycle (~/change_state, ~/get_state)."""
 
     def __init__(self, config_path: str = '', *, node_name: str = 'drive_bridge', **kwargs) -> None:

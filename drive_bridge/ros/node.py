@@ -5,13 +5,14 @@ from rclpy.node import Node
 
 from drive_bridge.master.master import Master
 from drive_bridge.ros.bridge import Bridge, StartupError, declare_and_load
+from drive_bridge.ros.callback_guard import GuardedCallbacks
 from drive_bridge.ros.parameters import BridgeParameters, watch
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 __all__ = ['BusNode', 'StartupError']
 
 
-class BusNode(Node):
+class BusNode(GuardedCallbacks, Node):
     """Bridges the drives of one bus into ROS, active from the start (docs/interfaces.md)."""
 
     def __init__(self, config_path: str = '', *, node_name: str = 'drive_bridge', **kwargs) -> None:

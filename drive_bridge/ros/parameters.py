@@ -7,6 +7,7 @@ run-time parameters (:data:`RUN_TIME`) are validated with the others and applied
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
 from typing import Any
@@ -68,9 +69,20 @@ DESCRIPTIONS = {
 RUN_TIME = frozenset({'publish_rate', 'state_rate', 'diagnostics_period', 'pvt_segment', 'pvt_lookahead'})
 START_TIME = frozenset(f.name for f in fields(BridgeParameters)) - RUN_TIME
 _DEFAULTS = {f.name: f.default for f in fields(BridgeParameters)}
-# timers of the executor: faster ones would starve the services and subscriptions
-MAX_STATE_RATE = 100.0  # Hz
-MIN_DIAGNOSTICS_PERIOD = 0.05  # s
+# Every number a parameter takes: finite, in [low, high]; ``zero``: 0 is also allowed (its own
+# meaning, in DESCRIPTIONS). Timers faster than these would starve the services and
+# subscriptions; slower ones are silence, not a rate.
+RANGES: dict[str, tuple[float, float, bool]] = {
+    'sync_period': (0.0001, 1.0, True),  # s; 0 = as in the bus configuration
+    'publish_rate': (0.1, 1000.0, True),  # Hz; 0 = every SYNC cycle
+    'state_rate': (0.1, 100.0, True),  # Hz; 0 = on change only
+    'diagnostics_period': (0.05, 3600.0, False),  # s
+    'pvt_segment': (0.001, 1.0, False),  # s, a whole number of ms
+    'pvt_lookahead': (0.001, 5.0, False),  # s, >= pvt_segment
+    'qos_depth': (1, 10000, False),
+}
+MAX_STATE_RATE = RANGES['state_rate'][1]  # Hz
+MIN_DIAGNOSTICS_PERIOD = RANGES['diagnostics_period'][0]  # s
 
 
 class ParameterError(DriveBridgeError, ValueError):
@@ -153,25 +165,28 @@ def _updated(current: BridgeParameters, parameters: Sequence[Parameter]) -> Brid
     return dataclasses.replace(current, **{p.name: _typed(p.name, p.value) for p in known})
 
 
+def _range_text(name: str) -> str:
+    low, high, zero = RANGES[name]
+    return f'{"0 or " if zero else ""}a finite number in {low:g}..{high:g}'
+
+
+def _in_range(name: str, value: object) -> bool:
+    low, high, zero = RANGES[name]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return False
+    return low <= value <= high or (zero and value == 0)
+
+
 def validate(params: BridgeParameters) -> list[str]:
     problems = []
     if params.config and params.config_yaml:
         problems.append('parameters config and config_yaml are exclusive: give one')
-    for name in ('sync_period', 'publish_rate', 'state_rate'):
-        if getattr(params, name) < 0:
-            problems.append(f'parameter {name} must be >= 0, got {getattr(params, name)}')
-    if params.state_rate > MAX_STATE_RATE:
-        problems.append(f'parameter state_rate must be <= {MAX_STATE_RATE:g} Hz (0: on change only), '
-                        f'got {params.state_rate}')
-    if params.diagnostics_period < MIN_DIAGNOSTICS_PERIOD:
-        problems.append(f'parameter diagnostics_period must be >= {MIN_DIAGNOSTICS_PERIOD:g} s, '
-                        f'got {params.diagnostics_period}')
-    if params.pvt_segment <= 0 or abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
-        problems.append(f'parameter pvt_segment must be a positive whole number of ms, got {params.pvt_segment}')
-    if params.pvt_lookahead < params.pvt_segment:
+    bad = {name for name in RANGES if not _in_range(name, getattr(params, name))}
+    problems += [f'parameter {name} must be {_range_text(name)}, got {getattr(params, name)!r}' for name in sorted(bad)]
+    if 'pvt_segment' not in bad and abs(params.pvt_segment * 1000 - round(params.pvt_segment * 1000)) > 1e-6:
+        problems.append(f'parameter pvt_segment must be a whole number of ms, got {params.pvt_segment}')
+    if not bad & {'pvt_segment', 'pvt_lookahead'} and params.pvt_lookahead < params.pvt_segment:
         problems.append(f'parameter pvt_lookahead must be >= pvt_segment, got {params.pvt_lookahead}')
-    if params.qos_depth < 1:
-        problems.append(f'parameter qos_depth must be >= 1, got {params.qos_depth}')
     if params.qos_reliability not in RELIABILITIES:
         problems.append(f'parameter qos_reliability must be one of {", ".join(RELIABILITIES)}, '
                         f'got {params.qos_reliability!r}')

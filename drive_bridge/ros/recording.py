@@ -10,6 +10,7 @@ both on one timeline (their ``header.stamp`` as log time). Bus events go in as
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -70,9 +71,13 @@ def record_parameters(values: dict[str, Any]) -> RecordParameters:
                                   split_seconds=float(values['split_seconds']), start=bool(values['start']))
     except (TypeError, ValueError) as exc:
         raise BagError(f'parameters record.*: {exc}') from None
-    for name in ('split_size_mb', 'split_seconds'):
-        if getattr(params, name) < 0:
-            raise BagError(f'parameter record.{name} must be >= 0, got {getattr(params, name)}')
+    for name, high in (('split_size_mb', 1e6), ('split_seconds', 86400.0)):
+        value = getattr(params, name)
+        if value < 0:
+            raise BagError(f'parameter record.{name} must be >= 0, got {value}')
+        if not math.isfinite(value) or value > high:  # 0 = no limit; a finite bound that means something
+            raise BagError(f'parameter record.{name} must be a finite number in 0..{high:g} (0 = no limit), '
+                           f'got {value}')
     if not params.path:
         raise BagError('parameter record.path must name a directory, got an empty string')
     return params

@@ -11,6 +11,7 @@ while a handler waits).
 from __future__ import annotations
 
 import concurrent.futures
+import math
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -26,6 +27,7 @@ from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
 from drive_bridge.ros.errors import RequestRefused
+from drive_bridge.ros.message_checks import check_float
 from drive_bridge.ros.pool import BoundedPool, in_pool
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
@@ -34,6 +36,19 @@ SERVICE_WORKERS = 8
 # requests running or waiting at once (all services of the node); more are refused at once
 MAX_PENDING_REQUESTS = 32
 AxisAction = Callable[[JointDriver, float | None], str | None]
+# the longest wait a request's ``timeout`` may ask for (s): a worker blocked longer serves no one
+MAX_TIMEOUT = 30.0
+MAX_HOMING_TIMEOUT = 300.0  # a homing run crosses the whole axis at search speed
+
+
+def request_timeout(service: str, value: float) -> float | None:
+    """A request's ``timeout`` (0: the configured default, None) checked as a finite number in
+    0..MAX_TIMEOUT (homing: MAX_HOMING_TIMEOUT); RequestRefused names the field and the bound."""
+    bound = MAX_HOMING_TIMEOUT if service == 'home' else MAX_TIMEOUT
+    if not isinstance(value, float) or not math.isfinite(value) or not 0.0 <= value <= bound:
+        raise RequestRefused(f'{service}: timeout {value!r} s refused: give a finite number of seconds in '
+                             f'0..{bound:g} (0 = the configured default)')
+    return value if value > 0 else None
 
 
 class BridgeServices:
@@ -91,6 +106,8 @@ class BridgeServices:
             data_type = self._resolve_type(request.node_id, request.index, request.subindex,
                                            request.value.data_type)
             value = sdo_value_to_python(request.value, data_type)
+            if isinstance(value, float):
+                check_float('value.float_value', value)
             self.master.sdo_write(request.node_id, request.index, request.subindex, value, data_type)
             response.message = (f'node {request.node_id} 0x{request.index:04X}:{request.subindex:02X} := '
                                 f'{value!r} ({type_name(data_type)})')
@@ -146,7 +163,11 @@ class BridgeServices:
 
     def _axis_handler(self, name: str, action: AxisAction):
         async def handle(request: AxisCommand.Request, response: AxisCommand.Response) -> AxisCommand.Response:
-            timeout = request.timeout if request.timeout > 0 else None
+            try:
+                timeout = request_timeout(name, request.timeout)
+            except RequestRefused as exc:
+                response.success, response.message, response.failed = False, str(exc), list(request.joints)
+                return response
             return await self._for_joints(name, list(request.joints),
                                           lambda axis: action(axis, timeout), response)
         return handle
@@ -156,7 +177,11 @@ class BridgeServices:
         if not mode:
             response.success, response.message = False, 'set_mode: no mode given'
             return response
-        timeout = request.timeout if request.timeout > 0 else None
+        try:
+            timeout = request_timeout('set_mode', request.timeout)
+        except RequestRefused as exc:
+            response.success, response.message, response.failed = False, str(exc), list(request.joints)
+            return response
 
         def change(axis: JointDriver) -> None:
             self.executor.stop([axis.joint], 'mode change')

@@ -23,9 +23,12 @@ from rclpy.node import Node
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drive_bridge.master.master import Master
+from drive_bridge.ros.callback_guard import failures_of, guard_execute, guard_goal
+from drive_bridge.ros.command_topics import log_accepted
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.goal_checks import GoalRefused, check_goal, tolerances
+from drive_bridge.ros.message_checks import NonFinite, check_trajectory_points
 from drive_bridge.ros.message_limits import MessageTooLarge, check_trajectory_size
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 from drive_bridge.streaming.trajectory import TrajectoryError
@@ -42,8 +45,11 @@ class TrajectoryAction:
         self.executor = executor
         self.active = True
         self._current: ServerGoalHandle | None = None
+        failures = failures_of(node)
         self.server = ActionServer(node, FollowJointTrajectory, '~/follow_joint_trajectory',
-                                   execute_callback=self.execute, goal_callback=self.on_goal,
+                                   execute_callback=guard_execute(failures, self.execute,
+                                                                  lambda text: self._result(Result.INVALID_GOAL, text)),
+                                   goal_callback=guard_goal(failures, self.on_goal),
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT,
                                    callback_group=ReentrantCallbackGroup())
 
@@ -74,9 +80,13 @@ class TrajectoryAction:
             return self._result(Result.INVALID_GOAL, str(exc))
         try:
             check_goal(request, list(self.master.axes), Result.INVALID_GOAL, Result.INVALID_JOINTS)
+            check_trajectory_points(request.trajectory.points)
         except GoalRefused as exc:
             goal.abort()
             return self._result(exc.code, str(exc))
+        except NonFinite as exc:
+            goal.abort()
+            return self._result(Result.INVALID_GOAL, str(exc))
         joints = list(request.trajectory.joint_names)
         unknown = [j for j in joints if j not in self.master.axes]
         if unknown or not joints:
@@ -92,6 +102,7 @@ class TrajectoryAction:
         if handle is None:  # an empty trajectory: a stop request, done
             goal.succeed()
             return self._result(Result.SUCCESSFUL, 'empty trajectory: joints stopped')
+        log_accepted(self.node, handle, len(request.trajectory.points))
         previous, self._current = self._current, goal
         if previous is not None and previous.is_active:
             self.node.get_logger().info('follow_joint_trajectory: a new goal replaces the running one')
@@ -135,7 +146,7 @@ class TrajectoryAction:
                            for j, tol in final['velocity'].items() if abs(actual[j].velocity) > tol]
                 if not misses:
                     goal.succeed()
-                    return self._result(Result.SUCCESSFUL, '')
+                    return self._result(Result.SUCCESSFUL, '; '.join(handle.notes))
                 if now > handle.end + settle:
                     goal.abort()
                     return self._result(Result.GOAL_TOLERANCE_VIOLATED,

@@ -16,13 +16,13 @@ from dataclasses import dataclass, field
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.joint import DriveState, JointDriver, JointError, Setpoint
+from drive_bridge.streaming.planning import plan
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (
     JointSample,
     JointSpline,
     Trajectory,
     TrajectoryError,
-    joint_splines,
     validate,
 )
 
@@ -39,6 +39,8 @@ class TrajectoryHandle:
     end: float
     state: str = 'pending'  # pending, active, succeeded, superseded, aborted, cancelled
     reason: str = ''
+    notes: tuple[str, ...] = ()  # what planning changed (past points dropped, segments stretched)
+    warnings: tuple[str, ...] = ()  # what it could not check (a joint without a velocity limit)
     _done: threading.Event = field(default_factory=threading.Event, repr=False)
 
     def finish(self, state: str, reason: str = '') -> None:
@@ -58,8 +60,10 @@ class TrajectoryExecutor:
     """Accepts trajectories for the bus's joints and feeds each axis one setpoint per cycle."""
 
     def __init__(self, axes: Mapping[str, JointDriver], clock: Callable[[], float] = time.time,
-                 cycle_period: float = 0.004, pvt_segment: float = 0.01, pvt_lookahead: float = 0.05) -> None:
+                 cycle_period: float = 0.004, pvt_segment: float = 0.01, pvt_lookahead: float = 0.05,
+                 scale_to_limits: bool = False) -> None:
         self.axes = dict(axes)
+        self.scale_to_limits = scale_to_limits  # stretch segments beyond the limits instead of refusing
         self.clock = clock
         self.cycle_period = cycle_period
         self.pvt_segment = pvt_segment
@@ -84,9 +88,11 @@ class TrajectoryExecutor:
             if not snapshot.available:
                 raise TrajectoryError(f'{source}: joint {joint} is not available (node {snapshot.node_id} '
                                       f'NMT {snapshot.nmt_state})')
+            if snapshot.drive_state is DriveState.FAULT:
+                raise TrajectoryError(f'{source}: joint {joint} is {axis.fault_description()}')
             if snapshot.drive_state is not DriveState.ENABLED:
                 raise TrajectoryError(f'{source}: joint {joint} is {snapshot.state_label}, not operation '
-                                      'enabled; enable it first')
+                                      'enabled; enable it first (~/enable)')
             try:  # first: the driver's own reason (e.g. a mode the drive lacks)
                 axis.check_trajectory(*fields)
             except JointError as exc:
@@ -118,27 +124,42 @@ class TrajectoryExecutor:
         if not trajectory.points:
             self.stop(trajectory.joints or tuple(self.axes), 'stopped by an empty trajectory', smooth=True)
             return None
-        validate(trajectory, {j: a.config.limits for j, a in self.axes.items()}, source)
+        limits = {j: a.config.limits for j, a in self.axes.items()}
+        arrays = validate(trajectory, limits, source, waypoint_velocities=not self.scale_to_limits)
         start = trajectory.start - self.lag if trajectory.start else now
-        end = start + trajectory.points[-1].time
-        if end < now:
-            raise TrajectoryError(f'{source}: ends {now - end:.3f} s in the past (header.stamp too old)')
+        if start + trajectory.points[-1].time < now:
+            raise TrajectoryError(f'{source}: ends {now - start - trajectory.points[-1].time:.3f} s in the past '
+                                  '(header.stamp too old)')
         held = tuple(j for j in self.axes if j not in trajectory.joints and self._owner[j] is not None)
         first = trajectory.points[0]
         self._check_axes(trajectory.joints, source, (bool(first.positions), bool(first.velocities)))
         self._check_axes(held, source)
         # a PVT stream already committed points to the drive: splice after them
         horizons = [f.horizon for j, f in self._feeders.items() if j in trajectory.joints or j in held]
-        committed = max((h for h in horizons if h is not None), default=start)
-        if committed > start:
-            shift = committed - start
-            start, end = start + shift, end + shift
+        committed = max((h for h in horizons if h is not None), default=0.0)
         with self._lock:
-            states = {j: self._start_state(j, start) for j in (*trajectory.joints, *held)}
-            splines = joint_splines(trajectory, start, states)
+            def states(at: float) -> dict[str, JointSample]:
+                return {j: self._start_state(j, at) for j in (*trajectory.joints, *held)}
+            # set-points are sampled one cycle ahead, for a SYNC up to a cycle ahead: a motion starting
+            # before the cycle that first samples it would catch up the time since in one cycle (a step).
+            # Planning takes time too (more on a busy machine): planned again, later, if it took so long
+            # that the start is no longer ahead of the next cycle
+            margin = 2 * self.cycle_period
+            for _attempt in range(3):
+                began = self.now()
+                planned = plan(trajectory, start, now, states, limits, self.scale_to_limits, source,
+                               max(committed, began + margin), arrays)
+                took = self.now() - began
+                if self.now() + self.cycle_period <= planned.start:
+                    break
+                margin += took + self.cycle_period
+            start, splines = planned.start, planned.splines
+            end = start + planned.duration
             for joint in held:  # partial goal: the other joints hold their desired position
-                splines[joint] = JointSpline(start, JointSample(states[joint].position, 0, 0), [], [], 1)
-            handle = TrajectoryHandle(next(self._ids), trajectory.joints, start, end)
+                position = self._start_state(joint, start).position
+                splines[joint] = JointSpline(start, JointSample(position, 0, 0), [], [], 1)
+            handle = TrajectoryHandle(next(self._ids), trajectory.joints, start, end, notes=planned.notes,
+                                      warnings=planned.warnings)
             for joint, spline in splines.items():
                 previous = self._owner[joint]
                 if previous is not None:

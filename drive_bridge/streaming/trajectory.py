@@ -11,13 +11,16 @@ splices into a running trajectory.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
 
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint.limits import unset_problem
 from drive_bridge.model import AxisLimits
+from drive_bridge.streaming.motion_check import coefficient_matrix
 
 
 @dataclass(frozen=True)
@@ -55,11 +58,23 @@ class TrajectoryError(DriveBridgeError, ValueError):
     """A trajectory refused as a whole; the message says why."""
 
 
-def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: str = 'trajectory') -> None:
-    """Refuse a trajectory that cannot be executed whole; each reason names the culprit."""
+def _first(mask: npt.NDArray[np.bool_]) -> tuple[int, int]:
+    """(point, joint) of the first True in a (points x joints) mask."""
+    flat = int(np.argmax(mask))
+    return divmod(flat, mask.shape[1]) if mask.ndim == 2 else (flat, 0)
+
+
+def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: str = 'trajectory',
+             waypoint_velocities: bool = True) -> TrajectoryArrays | None:
+    """Refuse a trajectory that cannot be executed whole; each reason names the culprit.
+    The per-value checks run on arrays (a 5,000-point trajectory in a few milliseconds); the
+    motion between the points is checked once splined (``streaming.planning``).
+    ``waypoint_velocities`` False: a waypoint velocity beyond the limit is left to the motion
+    check, which may stretch the trajectory (``trajectory.scale_to_limits``). Returns the
+    trajectory as arrays (None for the empty one), for the planning to reuse."""
     joints = trajectory.joints
     if not trajectory.points:
-        return  # an empty trajectory is a stop request
+        return None  # an empty trajectory is a stop request
     if len(trajectory.points) > MAX_TRAJECTORY_POINTS:  # first: the work below grows with it
         raise TrajectoryError(f'{source}: {len(trajectory.points)} points, more than the limit of '
                               f'{MAX_TRAJECTORY_POINTS}')
@@ -72,48 +87,72 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
     for joint in joints:
         if known[joint].todo:
             raise TrajectoryError(f'{source}: joint {joint} is {unset_problem(known[joint])}')
-    previous = -math.inf
+    _check_shape(trajectory, source)
+    data = TrajectoryArrays.of(trajectory)
+    times = data.times
+    bad_time = ~np.isfinite(times) | (times < 0)
+    if bad_time.any():
+        i = int(np.argmax(bad_time))
+        raise TrajectoryError(f'{source}: point {i}: time_from_start {times[i]} must be finite and >= 0')
+    steps = np.diff(times)
+    if (steps <= 0).any():
+        i = int(np.argmax(steps <= 0)) + 1
+        raise TrajectoryError(f'{source}: point {i}: time_from_start {times[i]:.6g} s is not after the previous '
+                              f'point ({times[i - 1]:.6g} s); times must increase strictly')
+    first = trajectory.points[0]
+    arrays = {name: values for name, values, given in (
+        ('position', data.positions, first.positions), ('velocity', data.velocities, first.velocities),
+        ('acceleration', data.accelerations, first.accelerations)) if given and values is not None}
+    for name, values in arrays.items():
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i, j = _first(bad)
+            raise TrajectoryError(f'{source}: point {i}: {name} of {joints[j]} is {values[i, j]}')
+    limits = [known[j] for j in joints]
+    positions = arrays.get('position')
+    if positions is not None:
+        for bound, word, sign in (('min_position', 'below', -1.0), ('max_position', 'above', 1.0)):
+            edge = np.array([getattr(lim, bound) if getattr(lim, bound) is not None else sign * np.inf
+                             for lim in limits])
+            bad = positions * sign > edge * sign
+            if bad.any():
+                i, j = _first(bad)
+                raise TrajectoryError(f'{source}: point {i}: position {positions[i, j]:.6g} of {joints[j]} is '
+                                      f'{word} its limit {edge[j]:.6g}')
+    velocities = arrays.get('velocity')
+    if velocities is not None and waypoint_velocities:
+        edge = np.array([lim.max_velocity if lim.max_velocity is not None else np.inf for lim in limits])
+        bad = np.abs(velocities) > edge
+        if bad.any():
+            i, j = _first(bad)
+            raise TrajectoryError(f'{source}: point {i}: velocity {velocities[i, j]:.6g} of {joints[j]} exceeds '
+                                  f'its limit {edge[j]:.6g}')
+    return data
+
+
+def _check_shape(trajectory: Trajectory, source: str) -> None:
+    """Every point has the same fields, each with one value per joint."""
+    count = len(trajectory.joints)
+    first = trajectory.points[0]
+    shape = (bool(first.positions), bool(first.velocities), bool(first.accelerations))
     for i, point in enumerate(trajectory.points):
         where = f'{source}: point {i}'
-        if not math.isfinite(point.time) or point.time < 0:
-            raise TrajectoryError(f'{where}: time_from_start {point.time} must be finite and >= 0')
-        if point.time <= previous:
-            raise TrajectoryError(f'{where}: time_from_start {point.time:.6g} s is not after the previous '
-                                  f'point ({previous:.6g} s); times must increase strictly')
-        previous = point.time
-        if point.positions and len(point.positions) != len(joints):
-            raise TrajectoryError(f'{where}: {len(point.positions)} positions for {len(joints)} joints')
+        if point.positions and len(point.positions) != count:
+            raise TrajectoryError(f'{where}: {len(point.positions)} positions for {count} joints')
         if not point.positions and not point.velocities:
             raise TrajectoryError(f'{where}: neither positions nor velocities')
         for name, values in (('velocities', point.velocities), ('accelerations', point.accelerations)):
-            if values and len(values) != len(joints):
-                raise TrajectoryError(f'{where}: {len(values)} {name} for {len(joints)} joints')
+            if values and len(values) != count:
+                raise TrajectoryError(f'{where}: {len(values)} {name} for {count} joints')
         if point.accelerations and not point.velocities:
             raise TrajectoryError(f'{where}: accelerations given without velocities')
-        for name, values in (('position', point.positions), ('velocity', point.velocities),
-                             ('acceleration', point.accelerations)):
-            for joint, value in zip(joints, values):
-                if not math.isfinite(value):
-                    raise TrajectoryError(f'{where}: {name} of {joint} is {value}')
-        for joint, position in zip(joints, point.positions):
-            limits = known[joint]
-            if limits.min_position is not None and position < limits.min_position:
-                raise TrajectoryError(f'{where}: position {position:.6g} of {joint} is below its limit '
-                                      f'{limits.min_position:.6g}')
-            if limits.max_position is not None and position > limits.max_position:
-                raise TrajectoryError(f'{where}: position {position:.6g} of {joint} is above its limit '
-                                      f'{limits.max_position:.6g}')
-        for joint, velocity in zip(joints, point.velocities):
-            limit = known[joint].max_velocity
-            if limit is not None and abs(velocity) > limit:
-                raise TrajectoryError(f'{where}: velocity {velocity:.6g} of {joint} exceeds its limit {limit:.6g}')
-    if len({bool(p.positions) for p in trajectory.points}) > 1:
-        raise TrajectoryError(f'{source}: some points have positions and others not; give positions in every '
-                              'point, or (velocity-only trajectory) in none')
-    kinds = {(bool(p.velocities), bool(p.accelerations)) for p in trajectory.points}
-    if len(kinds) > 1:
-        raise TrajectoryError(f'{source}: some points have velocities/accelerations and others not; '
-                              'give the same fields in every point')
+        here = (bool(point.positions), bool(point.velocities), bool(point.accelerations))
+        if here != shape:
+            if here[0] != shape[0]:
+                raise TrajectoryError(f'{source}: some points have positions and others not; give positions in '
+                                      'every point, or (velocity-only trajectory) in none')
+            raise TrajectoryError(f'{source}: some points have velocities/accelerations and others not; '
+                                  'give the same fields in every point')
 
 
 def _poly(t: float, c: Sequence[float]) -> JointSample:
@@ -143,29 +182,71 @@ def segment_coefficients(duration: float, start: JointSample, end: JointSample, 
             (12 * (p1 - p0) - 6 * (v1 + v0) * T - (a0 - a1) * T ** 2) / (2 * T ** 5))
 
 
+@dataclass(frozen=True)
+class SplineParts:
+    """One joint's spline as arrays: ``knots`` (s from its start), ``matrix`` (one row of
+    coefficients per segment, ascending powers), the states at the first and last knot."""
+
+    knots: npt.NDArray[np.float64]
+    matrix: npt.NDArray[np.float64]
+    first: JointSample
+    last: JointSample
+    lead_in: bool  # the first segment runs from the start state to the first waypoint
+
+
+def spline_parts(start: JointSample, times: npt.NDArray[np.float64], states: npt.NDArray[np.float64],
+                 order: int) -> SplineParts:
+    """The segments from ``start`` through waypoints at ``times`` (n,) with ``states``
+    (n x 3: position, velocity, acceleration), all coefficients computed at once."""
+    first = np.array([[start.position, start.velocity, start.acceleration]])
+    knots = np.concatenate([[0.0], times])
+    all_states = np.concatenate([first, states])
+    lead_in = not (len(times) and times[0] <= 0.0)  # else no segment before the first waypoint
+    if not lead_in:
+        knots, all_states = knots[1:], all_states[1:]
+    if len(knots) > 1:
+        matrix = coefficient_matrix(np.diff(knots), (all_states[:-1, 0], all_states[:-1, 1], all_states[:-1, 2]),
+                                    (all_states[1:, 0], all_states[1:, 1], all_states[1:, 2]), order)
+    else:
+        matrix = np.zeros((0, order + 1))
+    head, tail = all_states[0].tolist(), all_states[-1].tolist()
+    return SplineParts(knots, matrix, JointSample(*head), JointSample(*tail), lead_in)
+
+
 class JointSpline:
-    """One joint's path from a start state through waypoints; holds the last point after."""
+    """One joint's path from a start state through waypoints; holds the last point after.
+
+    ``parts`` keeps the arrays (what the motion check evaluates); ``knots`` as a list and each
+    segment's coefficients converted when first sampled keep the per-cycle ``sample`` cheap."""
 
     def __init__(self, start_time: float, start: JointSample, times: Sequence[float],
                  samples: Sequence[JointSample], order: int) -> None:
+        states = np.array([(s.position, s.velocity, s.acceleration) for s in samples],
+                          dtype=np.float64).reshape(-1, 3)
+        self._build(start_time, spline_parts(start, np.asarray(times, dtype=np.float64), states, order))
+
+    @classmethod
+    def of_parts(cls, start_time: float, parts: SplineParts) -> JointSpline:
+        spline = cls.__new__(cls)
+        spline._build(start_time, parts)
+        return spline
+
+    def _build(self, start_time: float, parts: SplineParts) -> None:
         self.start_time = start_time
-        knots = [0.0, *times]
-        states = [start, *samples]
-        if times and times[0] <= 0.0:  # the first waypoint is at the start: no lead-in segment
-            knots, states = knots[1:], states[1:]
-        self.knots = knots
-        self.states = states
-        self.coefficients = [segment_coefficients(knots[i + 1] - knots[i], states[i], states[i + 1], order)
-                             for i in range(len(knots) - 1)]
-        self.end_time = start_time + knots[-1]
+        self.parts = parts
+        self.lead_in = parts.lead_in
+        self.first, self.last = parts.first, parts.last
+        self.knots: list[float] = parts.knots.tolist()
+        self._rows: dict[int, list[float]] = {}
+        self.end_time = start_time + self.knots[-1]
 
     def sample(self, t: float) -> JointSample:
         local = t - self.start_time
         if local <= self.knots[0]:
-            first = self.states[0]
+            first = self.first
             return JointSample(first.position, 0.0, 0.0) if local < self.knots[0] else first
         if local >= self.knots[-1]:
-            return JointSample(self.states[-1].position, 0.0, 0.0)
+            return JointSample(self.last.position, 0.0, 0.0)
         lo, hi = 0, len(self.knots) - 1  # binary search for the segment
         while hi - lo > 1:
             mid = (lo + hi) // 2
@@ -173,7 +254,12 @@ class JointSpline:
                 lo = mid
             else:
                 hi = mid
-        return _poly(local - self.knots[lo], self.coefficients[lo])
+        row = self._rows.get(lo)
+        if row is None:
+            if len(self._rows) > 64:
+                self._rows.clear()
+            row = self._rows[lo] = self.parts.matrix[lo].tolist()
+        return _poly(local - self.knots[lo], row)
 
 
 def order_of(trajectory: Trajectory) -> int:
@@ -185,30 +271,59 @@ def has_positions(trajectory: Trajectory) -> bool:
     return bool(trajectory.points) and bool(trajectory.points[0].positions)
 
 
-def integrated_positions(trajectory: Trajectory, j: int, start: float) -> list[float]:
-    """Positions of joint ``j`` at the points of a velocity-only trajectory: the velocities
-    integrated from ``start`` at time 0 (trapezoidal, exact for the cubic through them when
-    the velocity is linear between points)."""
-    positions, position, time, velocity = [], start, 0.0, 0.0
-    for point in trajectory.points:
-        position += (velocity + point.velocities[j]) / 2 * (point.time - time)
-        time, velocity = point.time, point.velocities[j]
-        positions.append(position)
-    return positions
+def integrated_positions(velocities: npt.NDArray[np.float64], times: npt.NDArray[np.float64],
+                         start: float) -> npt.NDArray[np.float64]:
+    """Positions at the points of a velocity-only trajectory: the velocities integrated from
+    ``start`` at time 0 from rest (trapezoidal, exact for the cubic through them when the
+    velocity is linear between points)."""
+    previous_v = np.concatenate([[0.0], velocities[:-1]])
+    previous_t = np.concatenate([[0.0], times[:-1]])
+    return start + np.cumsum((previous_v + velocities) / 2 * (times - previous_t))
+
+
+@dataclass(frozen=True)
+class TrajectoryArrays:
+    """A validated, non-empty trajectory as arrays: ``times`` (n,), ``positions`` (n x joints,
+    None for a velocity-only one), ``velocities`` and ``accelerations`` (zeros where not given)."""
+
+    joints: tuple[str, ...]
+    times: npt.NDArray[np.float64]
+    positions: npt.NDArray[np.float64] | None
+    velocities: npt.NDArray[np.float64]
+    accelerations: npt.NDArray[np.float64]
+    order: int
+
+    @classmethod
+    def of(cls, trajectory: Trajectory) -> TrajectoryArrays:
+        points = trajectory.points
+        zeros = np.zeros((len(points), len(trajectory.joints)))
+        first = points[0]
+        return cls(trajectory.joints, np.array([p.time for p in points], dtype=np.float64),
+                   np.array([p.positions for p in points], dtype=np.float64) if first.positions else None,
+                   np.array([p.velocities for p in points], dtype=np.float64) if first.velocities else zeros,
+                   np.array([p.accelerations for p in points], dtype=np.float64) if first.accelerations else zeros,
+                   order_of(trajectory))
+
+    def tail(self, dropped: int, elapsed: float) -> TrajectoryArrays:
+        """Without the first ``dropped`` points, the others ``elapsed`` s earlier."""
+        if not dropped and not elapsed:
+            return self
+        return TrajectoryArrays(self.joints, self.times[dropped:] - elapsed,
+                                None if self.positions is None else self.positions[dropped:],
+                                self.velocities[dropped:], self.accelerations[dropped:], self.order)
+
+    def parts(self, j: int, start: JointSample, times: npt.NDArray[np.float64] | None = None) -> SplineParts:
+        """Joint ``j``'s spline from ``start``, at the points' ``times`` (or others: stretched)."""
+        times = self.times if times is None else times
+        column = (self.positions[:, j] if self.positions is not None
+                  else integrated_positions(self.velocities[:, j], times, start.position))
+        states = np.stack([column, self.velocities[:, j], self.accelerations[:, j]], axis=1)
+        return spline_parts(start, times, states, self.order)
 
 
 def joint_splines(trajectory: Trajectory, start_time: float,
                   start_states: Mapping[str, JointSample]) -> dict[str, JointSpline]:
     """One spline per joint of a validated, non-empty trajectory."""
-    order = order_of(trajectory)
-    times = [p.time for p in trajectory.points]
-    splines = {}
-    for j, joint in enumerate(trajectory.joints):
-        start = start_states[joint]
-        positions = ([p.positions[j] for p in trajectory.points] if has_positions(trajectory)
-                     else integrated_positions(trajectory, j, start.position))
-        samples = [JointSample(position, p.velocities[j] if p.velocities else 0.0,
-                               p.accelerations[j] if p.accelerations else 0.0)
-                   for position, p in zip(positions, trajectory.points)]
-        splines[joint] = JointSpline(start_time, start, times, samples, order)
-    return splines
+    arrays = TrajectoryArrays.of(trajectory)
+    return {joint: JointSpline.of_parts(start_time, arrays.parts(j, start_states[joint]))
+            for j, joint in enumerate(trajectory.joints)}

@@ -52,14 +52,17 @@ from drive_bridge.families.opendrive.alarms import alarm_text, emcy_alarm_word
 from drive_bridge.families.opendrive.options import DriveOptions
 from drive_bridge.families.opendrive.units import Units
 from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
+from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
 
 PV = int(Mode.PROFILE_VELOCITY)
 PT = int(Mode.PROFILE_TORQUE)
 MODES = (PV, PT)
 ESTIMATED = 'position estimated (integrated from velocity)'
+AT_REST_UNITS = 16  # |actual velocity element| at most this (0.1 % of its 16384 full scale): at rest
 Key = tuple[int, int]
 
 
@@ -107,6 +110,8 @@ class RunLogicDriver:
         self._stale = False
         self._message = ''
         self._written: dict[Key, int] = {}
+        self._guard = SetpointGuard(cycle_period)
+        self._refused = ''  # why the cycle check last refused a reference
         self._reset_mark: EmcyEvent | None = None  # the newest EMCY at the last fault reset: it and older are history
         # position: unwrapped counts of the configured quantity, or integrated velocity (rad)
         self._counts = 0
@@ -213,6 +218,9 @@ class RunLogicDriver:
                 self._speed = self._torque = 0
             else:
                 self._follow(now)
+                self._check_references(now)
+            if not enabled or self._halt:
+                self._guard.seed('velocity', 0.0, now)
             speed = self._speed if self._mode == PV else 0
             torque = self._torque if self._mode == PT else 0
             word = self._base | (od.RUN_BIT if self._run else 0)
@@ -223,6 +231,31 @@ class RunLogicDriver:
         self._write('logic', word)
         self._write('speed', speed)
         self._write('torque_reference', torque)
+
+    def _check_references(self, now: float) -> None:
+        """The last check of this cycle's reference (``joint.setpoint_guard``): beyond the
+        joint's limits, or (streamed through the bridge's loop) changed faster than they allow,
+        it is never written; the axis is halted (references 0, RUN kept) or, with
+        ``limits.on_violation: quick_stop``, stopped (RUN low), and the cause reported."""
+        limits, units = self.config.limits, self.units
+        streamed = self._source is not None and self._looped()
+        if self._mode == PV:
+            problem = self._guard.check(limits, 'velocity', self._speed * units.reference_per_unit, now,
+                                        abs(units.reference_per_unit), streamed)
+        else:
+            problem = self._guard.check(limits, 'effort', self._torque * units.torque_per_unit, now,
+                                        abs(units.torque_per_unit), False)
+        if problem is None:
+            return
+        self._clear_commands()
+        if self.config.limits.on_violation == 'quick_stop':
+            self._run = False
+        else:
+            self._halt = True
+        self._refused = (f'set-point refused before it was written: {problem}; axis held '
+                         f'({"RUN low" if not self._run else "references 0, RUN kept"}, limits.on_violation)')
+        self._message = self._refused
+        self.node.report_setpoint_refused(self.joint, f'{self._where()}: {self._refused}')
 
     def _clear_commands(self) -> None:
         """References 0, no stream, no dead-man running (under the lock)."""
@@ -275,7 +308,9 @@ class RunLogicDriver:
         if setpoint.position is not None and self._looped():
             if self._loop_target is None and self._loop is not None:
                 velocity = self._read('velocity')
-                self._loop.reset(self.units.velocity_si(velocity) if velocity is not None else 0.0)
+                start = self.units.velocity_si(velocity) if velocity is not None else 0.0
+                self._loop.reset(start)
+                self._guard.rebase('velocity', start)
             self._loop_target = (setpoint.position, setpoint.velocity or 0.0)
             self._last_command = time.monotonic()
             self._stale = False
@@ -295,6 +330,25 @@ class RunLogicDriver:
         if self._written.get(key) != value:
             self._written[key] = value
             self.node.write(*key, value)
+
+    def stop_run_on(self, by_sdo: bool) -> bool:
+        """The drive runs on by itself and its master liveness is lost while it still sends: RUN
+        low and references 0 in this cycle's RPDO (``by_sdo``: written by SDO too); every intent
+        dropped. True once its speed reads (about) 0: at rest."""
+        with self._cond:
+            self._run = self._confirmed = False
+            self._clear_commands()
+            if not by_sdo:
+                self._message = 'liveness lost while the drive still sends: stopping it (RUN low, references 0)'
+            word = self._base
+        for name, value in (('logic', word), ('speed', 0), ('torque_reference', 0)):
+            if by_sdo:  # the process image is the cycle's: left as the PDO path writes it
+                self.node.sdo_write(*self.key[name], value)
+            else:
+                self._written[self.key[name]] = value
+                self.node.write(*self.key[name], value)
+        velocity = self._read('velocity')
+        return velocity is not None and abs(velocity) <= AT_REST_UNITS
 
     def on_node_reset(self) -> None:
         """The node is configured again (rebooted, or answers again after a loss): every intent
@@ -345,11 +399,11 @@ class RunLogicDriver:
         """Fieldbus RUN high; done when the drive reads RUN back high (0x2021 bit 0)."""
         self._require_available()
         if self._alarms():
-            raise RunLogicError(f'{self._where()}: in fault, {self._fault_text()}; reset the fault first')
+            raise RunLogicError(f'{self._where()}: {self.fault_description()}')
         with self._cond:
             self._run, self._confirmed, self._halt = True, False, False
             self._clear_commands()
-            self._message = ''
+            self._message = self._refused = ''
         wait = timeout if timeout is not None else self.timeouts.state_switch
 
         def confirmed() -> bool:
@@ -393,6 +447,8 @@ class RunLogicDriver:
         with self._cond:
             self._halt = on
             self._clear_commands()
+            if not on and self._refused:
+                self._message = self._refused = ''
 
     def reset_fault(self, timeout: float | None = None) -> None:
         """A rising edge of the alarm reset function; done when 0x2018 reads 0 or the reset EMCY
@@ -484,8 +540,10 @@ class RunLogicDriver:
                                     f'{self.options.rated_torque:g} N·m): refused, not wrapped')
         if not self.node.available:
             raise RunLogicError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
+        if self.drive_state is DriveState.FAULT:
+            raise RunLogicError(f'{self._where()}: {self.fault_description()}')
         if self.drive_state is not DriveState.ENABLED:
-            raise RunLogicError(f'{self._where()}: {self._state_text()}, not enabled; enable it first')
+            raise RunLogicError(f'{self._where()}: {self._state_text()}, not enabled; enable it first (~/enable)')
         if self._halt:
             raise RunLogicError(f'{self._where()}: halted (references 0); resume first')
 
@@ -554,6 +612,11 @@ class RunLogicDriver:
     def is_stream_fault(self, event: EmcyEvent) -> bool:
         return False
 
+    def fault_description(self) -> str:
+        """The alarms (0x2018) and the last EMCY, and the way out."""
+        alarms = self._alarms()
+        return fault_refusal(self.last_emcy(), [self._fault_text()] if alarms else [])
+
     # -- state -----------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:
         for event in reversed(self.node.emcy_history()):
@@ -597,4 +660,4 @@ class RunLogicDriver:
             position=position, velocity=velocity, effort=effort, stamp=stamp,
             fault=bool(alarms), warning=False, target_reached=False, internal_limit=False,
             following_error=False, halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
-            message='; '.join(notes))
+            message='; '.join(notes), setpoint_refused=self._refused)

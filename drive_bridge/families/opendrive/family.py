@@ -50,7 +50,7 @@ from drive_bridge.families.interface import DATA_DIR, DriveFamily, Liveness
 from drive_bridge.families.opendrive import alarms, objects as od, representation
 from drive_bridge.families.opendrive.driver import RunLogicDriver
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
-from drive_bridge.families.opendrive.parameters import OpenDriveParameters
+from drive_bridge.families.opendrive.parameters import SAFETY_PARAMETERS, OpenDriveParameters
 from drive_bridge.families.opendrive.units import Units
 from drive_bridge.families.parameters import ParameterError, ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
@@ -87,6 +87,9 @@ class OpenDrive(DriveFamily):
 
     name = 'opendrive'
     description = 'OPEN drive converter (CiA 301 only: RUN logic, CAN references, node guarding)'
+    # the drive keeps its last RUN and references when its master goes silent (appendix §2.4: no
+    # action on a life-guarding timeout in the default firmware, no heartbeat, no RPDO timeout)
+    runs_on_without_master = True
     default_eds = DATA_DIR / 'opendrive.eds'
     has_cia402 = False
     has_heartbeat = False
@@ -135,6 +138,24 @@ class OpenDrive(DriveFamily):
         tpdos = tuple(PdoConfig(n, predefined_cob_id('tpdo', n, node_id), transmission=tx_type, event_timer=timer,
                                 mapping=m) for n, m in ((1, tx1), (2, tx2)) if m)
         return rpdos, tpdos
+
+    def safety_object(self, config: NodeConfig | None, index: int, subindex: int) -> str | None:
+        """CiA 301's, and P162 (node id) and C48 (bit rate) in the parameter arrays."""
+        offset = 0
+        if config is not None and config.axes:
+            try:
+                offset = DriveOptions.of(config.axes[0].drive).array_offset
+            except ValueError:
+                offset = 0
+        for (letter, number), text in SAFETY_PARAMETERS.items():
+            if (index, subindex) == ((od.PARAMETERS if letter == 'P' else od.CONNECTIONS), number + offset):
+                return text
+        return super().safety_object(config, index, subindex)
+
+    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
+        """RUN low and references 0 (the driver's outputs; by SDO too), at rest when the speed is 0."""
+        driver = self._drivers.get(node_id)
+        return True if driver is None else driver.stop_run_on(by_sdo)
 
     # -- the joint driver ---------------------------------------------------------------------
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,

@@ -116,6 +116,10 @@ def _signed(value: int) -> int:
     return value - 0x10000 if value >= 0x8000 else value
 
 
+# node id and bit rate: the parameters that change the drive's link (appendix §1)
+SAFETY_PARAMETERS = {('P', 162): 'P162, the CAN node id', ('C', 48): 'C48, the CAN bit rate code'}
+
+
 def parse_name(name: str) -> tuple[str, int] | None:
     """('P', 162) for 'P162' / 'p 162'; None if it is not a P or C number."""
     match = _NAME.fullmatch(name)
@@ -154,6 +158,10 @@ class OpenDriveParameters(ParameterAccess):
 
     def stores(self, name: str) -> bool:
         return parse_name(name.strip()) == ('C', od.C63)
+
+    def safety(self, name: str) -> str | None:
+        parsed = parse_name(name.strip())
+        return SAFETY_PARAMETERS.get(parsed) if parsed is not None else None
 
     def save(self, drive_object: int = 0) -> str:
         self._name('C63', drive_object)

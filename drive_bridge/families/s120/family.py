@@ -47,7 +47,7 @@ from drive_bridge.families.registry import register_family
 from drive_bridge.families.s120 import boot, eds, emcy, objects as s, pdos
 from drive_bridge.families.s120.driver import S120Axis
 from drive_bridge.families.s120.options import parse_options
-from drive_bridge.families.s120.parameters import S120Parameters, read_number
+from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, S120Parameters, read_number, sdo_index
 from drive_bridge.joint import JointDriver, NodeIo
 from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
 
@@ -67,6 +67,7 @@ class SinamicsS120(DriveFamily):
 
     name = 'sinamics_s120'
     description = 'Siemens SINAMICS S120 with CBC10 (CANopen; VL/PV/PT, the bridge closes the position loop)'
+    vendor_safety_objects = {sdo_index(number): text for number, text in SAFETY_PARAMETERS.items()}
     default_eds = None  # the vendor's EDS, named by the config's dcf
     has_cia402 = True
     max_axes = s.MAX_DRIVE_OBJECTS

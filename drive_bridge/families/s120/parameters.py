@@ -73,6 +73,23 @@ class ParameterName:
                 s.PARAMETER_BASE + self.number % s.PARAMETER_WINDOW, index % s.PAGE_SIZE)
 
 
+# the CBC10's parameters that set its reaction to a lost master or its link (manual: p86xx)
+SAFETY_PARAMETERS = {
+    8641: 'p8641, the drive reaction to a CAN communication error (= 0x6007)',
+    8602: 'p8602, the SYNC COB-ID (= 0x1005)',
+    8604: 'p8604, node guarding: guard time and life time factor (= 0x100C, 0x100D)',
+    8606: 'p8606, the producer heartbeat time (= 0x1017)',
+    8609: 'p8609, the NMT error behaviour (= 0x1029)',
+    8620: 'p8620, the CAN node id',
+    8622: 'p8622, the CAN bit rate',
+}
+
+
+def sdo_index(number: int) -> int:
+    """The SDO index of a p8xxx parameter (0x4000 + number - 8192: p8620 = 0x41AC)."""
+    return 0x4000 + number - 8192
+
+
 def parse_name(text: str) -> ParameterName | None:
     """'p2000', 'r0062', 'p1120[0]', 'P1120.1' -> ParameterName; None if it is not one."""
     match = _NAME.fullmatch(text)
@@ -263,6 +280,10 @@ class S120Parameters(ParameterAccess):
     def stores(self, name: str) -> bool:
         parsed = parse_name(name.strip())
         return parsed is not None and parsed.number in s.STORE_NUMBERS
+
+    def safety(self, name: str) -> str | None:
+        parsed = parse_name(name.strip())
+        return SAFETY_PARAMETERS.get(parsed.number) if parsed is not None else None
 
     def save(self, drive_object: int = 0) -> str:
         try:

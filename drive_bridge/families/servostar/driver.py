@@ -265,7 +265,7 @@ class ServostarAxis(Axis):
         if not self.node.available:
             raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
         if self.state is not State.OPERATION_ENABLED:
-            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; enable it first')
+            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; {self._way_out()}')
         if position is not None:
             with self._cond:
                 problem = self._step_problem(self.config.scaling.position_to_device(position))

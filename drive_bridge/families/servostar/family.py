@@ -63,6 +63,10 @@ class Servostar(DriveFamily):
 
     name = 'servostar'
     description = 'Kollmorgen SERVOSTAR 400/600 (CANopen; trajectory mode 0xFA, node guarding)'
+    vendor_safety_objects = {
+        0x3505: 'ADDR, the CAN node address',
+        0x3515: 'CBAUD, the CAN bit rate',
+    }
     default_eds = DATA_DIR / 'servostar.eds'
     has_cia402 = True
     max_axes = 1

@@ -478,6 +478,8 @@ def encode(value: int, kind: str) -> bytes:
 
 # commands that store the parameters in the EEPROM or load them back (or the defaults)
 STORE_COMMANDS: Final = frozenset({'SAVE', 'LOAD', 'RSTVAR'})
+# the parameters that change the drive's link (node address, bit rate) or its master supervision
+SAFETY_PARAMETERS = {'ADDR': 'ADDR, the CAN node address', 'CBAUD': 'CBAUD, the CAN bit rate'}
 
 
 class ServostarParameters(ParameterAccess):
@@ -585,6 +587,9 @@ class ServostarParameters(ParameterAccess):
 
     def stores(self, name: str) -> bool:
         return name.strip().upper() in STORE_COMMANDS
+
+    def safety(self, name: str) -> str | None:
+        return SAFETY_PARAMETERS.get(name.strip().upper())
 
     def save(self, drive_object: int = 0) -> str:
         with self._lock:
