@@ -2,7 +2,7 @@
 
 Each subcommand is a module of this package that follows :class:`Subcommand`; adding one is
 one line in ``COMMANDS``. Modules are imported when their verb runs, so ``--help`` and a
-fast verb do not pay for rclpy, rosbags or matplotlib.
+fast verb do not pay for rclpy, rosbags or canopen.
 """
 from __future__ import annotations
 
