@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import pytest
 import yaml
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import SdoWrite
@@ -37,6 +38,7 @@ def one(findings: list[dict[str, Any]], kind: str, node: int, text: str = '') ->
     return hits[0]
 
 
+@pytest.mark.slow
 def test_a_bag_the_bridge_recorded_names_each_injected_fault(ros: RosHarness, tmp_path: Path) -> None:
     node = BusNode(context=ros.context, parameter_overrides=[
         Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),

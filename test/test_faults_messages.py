@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 
 import pytest
+import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
@@ -18,12 +19,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from bustools import demo_data
 from drive_bridge.master.events import EventKind
 from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, MalformedMessage, check_trajectory_bytes, trajectory_counts
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
 from faulttools import demo_bridge
 from rostools import RosHarness, wait_for
+from timingtools import BUSY_SLACK, CycleWatch
 
 NS = '/drive_bridge'
 JOINTS = ['base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint']
@@ -31,7 +34,12 @@ JOINTS = ['base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint']
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    node = demo_bridge(ros)
+    # heartbeat timeouts of 1 s, not 300 ms (multiplier 10, as the README example's test): a busy
+    # machine stalls this process 0.4 s now and then; the bug these tests guard against stalled
+    # it 5 s and lost node 4
+    data = demo_data()
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
+    node = demo_bridge(ros, config_yaml=yaml.safe_dump(data, sort_keys=False))
     yield node
     node.close()
 
@@ -95,16 +103,17 @@ def test_a_200000_point_trajectory_is_refused_and_the_cycle_does_not_notice(ros:
     publisher = ros.node('big_traj').create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
     wait_for(lambda: publisher.get_subscription_count(), 5, 'the bridge subscribed')
     wait_for(lambda: states.times, 5, 'joint states')
-    sync = bridge.master.sync
-    skipped, since = sync.skipped, time.monotonic()
+    watch, since = CycleWatch(bridge.master), time.monotonic()
     publisher.publish(raw)
     wait_for(lambda: errors.messages, 10, 'the refusal')
     assert errors.messages[0].data == (
         f'~/joint_trajectory: refused: 200000 points, more than the limit of {MAX_TRAJECTORY_POINTS}; send it in '
         'shorter pieces (each new trajectory splices onto the running one)')
     time.sleep(0.3)
-    assert sync.skipped - skipped < 100, f'{sync.skipped - skipped} cycles skipped'  # 538 before, on this test
-    assert states.max_gap(since) < 0.25
+    # before, the cycle stalled through the message: 96 % of the grid skipped (1,318 cycles), a
+    # node lost; a busy machine skips up to about half of it in this process by itself
+    assert watch.skip_share < 0.75, watch
+    assert states.max_gap(since) < BUSY_SLACK
     assert not [e for e in bridge.master.events if e.kind is EventKind.HEARTBEAT_LOST]
     assert all(n.available for n in bridge.master.nodes.values())
     assert not bridge.trajectories.active()
@@ -151,8 +160,8 @@ def test_oversized_direct_commands_are_refused_by_their_length(ros: RosHarness, 
     errors = Arrivals(ros, String, f'{NS}/command_errors')
     publisher = ros.node(f'big_{topic}').create_publisher(type(msg), f'{NS}/{topic}', 10)
     wait_for(lambda: publisher.get_subscription_count(), 5, 'the bridge subscribed')
-    skipped = bridge.master.sync.skipped
+    watch = CycleWatch(bridge.master)
     publisher.publish(msg)
     wait_for(lambda: errors.messages, 5, 'the refusal')
     assert errors.messages[0].data.startswith(f'~/{topic}: refused: {reason}')
-    assert bridge.master.sync.skipped - skipped < 25
+    assert watch.skip_share < 0.75, watch  # the cycle went on (a busy machine skips about half by itself)
