@@ -6,9 +6,13 @@
    python-can, and the repository's converted copy of the MiniMon trace);
 2. wall time (and CPU time) of both command-line tools on the same files: a 150,000-frame log
    (the real pcan3 trace repeated, as candump -L) and a 30-frame one (the first 30 frames of
-   the ros2_canopen issue 225 log), plus `--help`: the best of --repeat runs of each.
+   the ros2_canopen issue 225 log), plus `--help`: the best of --repeat runs of each, and
+   each row's ratio to lens's time in the same run (the machine is shared: ratios compare).
+   ``--baseline DIR`` also times another checkout of drive_bridge (DIR holds its
+   ``drive_bridge/`` package, e.g. ``git archive main drive_bridge | tar -x -C DIR``) in the
+   same run: before and after a change, under the same load.
 
-    .venv/bin/python -m bench diagnose_lens [--repeat 3] [--frames 150000]
+    .venv/bin/python -m bench diagnose_lens [--repeat 3] [--frames 150000] [--no-corpus] [--baseline DIR]
 """
 from __future__ import annotations
 
@@ -103,7 +107,7 @@ def big_log(frames: int, out: Path) -> Path:
     return out
 
 
-def timed(command: list[str], repeat: int, tmp: Path) -> tuple[float, float]:
+def timed(command: list[str], repeat: int, tmp: Path, env: dict[str, str] | None = None) -> tuple[float, float]:
     """(best wall s, CPU s of that run) of a command."""
     best = (float('inf'), 0.0)
     for _ in range(repeat):
@@ -111,7 +115,7 @@ def timed(command: list[str], repeat: int, tmp: Path) -> tuple[float, float]:
             shutil.rmtree(leftover, ignore_errors=True)
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        subprocess.run(command, check=False, capture_output=True, timeout=600, cwd=tmp)
+        subprocess.run(command, check=False, capture_output=True, timeout=600, cwd=tmp, env=env)
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
@@ -119,38 +123,40 @@ def timed(command: list[str], repeat: int, tmp: Path) -> tuple[float, float]:
     return best
 
 
-def speed(tmp: Path, frames: int, repeat: int) -> None:
+def speed(tmp: Path, frames: int, repeat: int, baseline: Path | None = None) -> None:
     big = big_log(frames, tmp / 'big.log')
     small = tmp / 'small.log'
     small.write_text(''.join((path_of({'dir': 'test', 'file': 'ros2_canopen_225_boot_stall.log'})
                               .read_text().splitlines(keepends=True))[:30]))
-    print(f'\nwall time, best of {repeat} (CPU time of that run); {frames} and 30 frames; load average '
-          f'{os.getloadavg()[0]:.1f} at the start')
-    print(f'{"":44} {"150k-frame log":>22} {"30-frame log":>22}')
-    rows = [('canopen-lens (its analysis, JSON)',
-             lambda f: [LENS, str(f), '-s', str(tmp / 'l.json'), '--no-color']),
-            ('drive-bridge diagnose, text + JSON', lambda f: [OURS, 'diagnose', str(f), '--no-html', '--json',
-                                                              str(tmp / 'o.json'), '--no-progress']),
-            ('drive-bridge diagnose, + HTML report', lambda f: [OURS, 'diagnose', str(f), '-o', str(tmp / 'o.html'),
-                                                                '--json', str(tmp / 'o.json'), '--no-progress']),
-            ('drive-bridge import (to a rosbag2 bag)',
-             lambda f: [OURS, 'import', str(f), '-o', str(tmp / 'bag'), '-q'])]
-    results = {}
-    for name, command in rows:
-        results[name] = [timed(command(f), repeat, tmp) for f in (big, small)]
-        cells = [f'{wall:6.2f} s ({cpu:5.2f} s)' for wall, cpu in results[name]]
-        print(f'{name:44} {cells[0]:>22} {cells[1]:>22}')
+    print(f'\nwall time, best of {repeat} (CPU time of that run) and its ratio to lens\'s wall time; {frames} and '
+          f'30 frames; load average {os.getloadavg()[0]:.1f} at the start')
+    print(f'{"":46} {f"{frames}-frame log":>30} {"30-frame log":>30}')
+    ours = {'text + JSON': lambda f: ['diagnose', str(f), '--no-html', '--json', str(tmp / 'o.json'), '--no-progress'],
+            '+ HTML report': lambda f: ['diagnose', str(f), '-o', str(tmp / 'o.html'), '--json', str(tmp / 'o.json'),
+                                        '--no-progress'],
+            'import (to a rosbag2 bag)': lambda f: ['import', str(f), '-o', str(tmp / 'bag'), '-q']}
+    rows: list[tuple[str, Any, dict[str, str] | None]] = [
+        ('canopen-lens (its analysis, JSON)', lambda f: [LENS, str(f), '-s', str(tmp / 'l.json'), '--no-color'], None)]
+    for tag, env in [('drive-bridge', None)] + ([('baseline', {**os.environ, 'PYTHONPATH': str(baseline)})]
+                                              if baseline else []):
+        rows += [(f'{tag} {name}', lambda f, a=args: [OURS, *a(f)], env) for name, args in ours.items()]
+    results: dict[str, list[tuple[float, float]]] = {}
+    for name, command, env in rows:
+        results[name] = [timed(command(f), repeat, tmp, env) for f in (big, small)]
+        lens = results['canopen-lens (its analysis, JSON)']
+        cells = [f'{wall:6.2f} s ({cpu:5.2f} s) {wall / ref[0]:4.1f}x' for (wall, cpu), ref in zip(results[name], lens)]
+        print(f'{name:46} {cells[0]:>30} {cells[1]:>30}')
     for name, command_line in (('canopen-lens --help', [LENS, '--help']),
                                ('drive-bridge diagnose --help', [OURS, 'diagnose', '--help'])):
         wall, cpu = timed(command_line, repeat, tmp)
-        print(f'{name:44} {f"{wall:6.2f} s ({cpu:5.2f} s)":>22}')
+        print(f'{name:46} {f"{wall:6.2f} s ({cpu:5.2f} s)":>30}')
     lens_big, lens_small = results['canopen-lens (its analysis, JSON)']
-    ours = results['drive-bridge diagnose, text + JSON']
-    html = results['drive-bridge diagnose, + HTML report']
+    text = results['drive-bridge text + JSON']
+    html = results['drive-bridge + HTML report']
     imp = results['drive-bridge import (to a rosbag2 bag)']
-    print(f'\ngoals (wall): text/JSON <= lens on 150k: {ours[0][0] / lens_big[0]:.1f}x lens; HTML <= 2x lens: '
+    print(f'\ngoals (wall): text/JSON <= lens on 150k: {text[0][0] / lens_big[0]:.1f}x lens; HTML <= 2x lens: '
           f'{html[0][0] / lens_big[0]:.1f}x; import <= 2x lens: {imp[0][0] / lens_big[0]:.1f}x; 30 frames <= lens + '
-          f'0.3 s: lens + {html[1][0] - lens_small[0]:.2f} s (with HTML), + {ours[1][0] - lens_small[0]:.2f} s '
+          f'0.3 s: lens + {html[1][0] - lens_small[0]:.2f} s (with HTML), + {text[1][0] - lens_small[0]:.2f} s '
           f'(text + JSON); load average {os.getloadavg()[0]:.1f} at the end')
 
 
@@ -159,13 +165,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument('--repeat', type=int, default=3, help='runs per timed command (the best is shown)')
     parser.add_argument('--frames', type=int, default=150_000, help='frames of the long log')
     parser.add_argument('--no-speed', action='store_true', help='the corpus comparison only')
+    parser.add_argument('--no-corpus', action='store_true', help='the timing only')
+    parser.add_argument('--baseline', type=Path, metavar='DIR',
+                        help='also time the drive_bridge package in DIR (PYTHONPATH=DIR), in the same run')
     args = parser.parse_args(argv)
     if not Path(LENS).exists():
         raise SystemExit(f'{LENS} is missing: canopen-lens is pinned in requirements.txt (tools/bootstrap.sh)')
     with tempfile.TemporaryDirectory() as tmp:
-        side_by_side(Path(tmp))
+        if not args.no_corpus:
+            side_by_side(Path(tmp))
         if not args.no_speed:
-            speed(Path(tmp), args.frames, args.repeat)
+            speed(Path(tmp), args.frames, args.repeat, args.baseline)
 
 
 if __name__ == '__main__':

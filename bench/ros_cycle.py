@@ -389,26 +389,8 @@ def subscriber_role(joints: int, out: str, stream: bool, seconds: float) -> None
 
 def probe_role(period: float, seconds: float, out: str) -> None:
     """A bare sleep loop on the period grid, the bridge's skip rule: what the machine alone costs."""
-    deadline = time.perf_counter() + period
-    end = deadline + seconds
-    skipped = cycles = 0
-    late: list[float] = []
-    wakes: list[float] = []
-    while deadline < end:
-        delay = deadline - time.perf_counter()
-        if delay > 0:
-            time.sleep(delay)
-        woke = time.perf_counter()
-        late.append(woke - deadline)
-        wakes.append(woke)
-        cycles += 1
-        deadline += period
-        while deadline - woke < period / 2:
-            deadline += period
-            skipped += 1
-    intervals = [b - a for a, b in zip(wakes, wakes[1:])]  # as the SYNC intervals: skips included
-    Path(out).write_text(json.dumps({'skipped': skipped, 'cycles': cycles, 'late_p99': _pct(late, 0.99),
-                                     'interval_p99': _pct(intervals, 0.99)}))
+    from bench.floor import sleep_loop
+    Path(out).write_text(json.dumps(sleep_loop(period, seconds)))
 
 
 # --- the orchestrator ---------------------------------------------------------------------------

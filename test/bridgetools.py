@@ -118,14 +118,16 @@ def _progress(snapshot: BusSnapshot) -> tuple[int, int, int]:
     return (sync.cycles if sync is not None else 0, snapshot.traffic.rx_frames, snapshot.traffic.tx_frames)
 
 
-def fresh_snapshot(node: BusNode, timeout: float = 5.0) -> BusSnapshot:
-    """The bus as the bus process saw it after this call. ``node.master.snapshot()`` answers with
-    the last snapshot it has and asks for the next one; an answer may be on its way already, so
-    the second snapshot that shows progress was taken after the call."""
-    seen = [_progress(node.master.snapshot())]
+def fresh_snapshot(node: Any, timeout: float = 5.0) -> BusSnapshot:
+    """The bus as the bus process saw it after this call (``node``: a bus node, or its client).
+    ``master.snapshot()`` answers with the last snapshot it has and asks for the next one; an
+    answer may be on its way already, so the second snapshot that shows progress was taken after
+    the call."""
+    client = getattr(node, 'master', node)
+    seen = [_progress(client.snapshot())]
 
     def newer() -> BusSnapshot | None:
-        snapshot = node.master.snapshot()
+        snapshot = client.snapshot()
         if _progress(snapshot) > seen[-1]:
             seen.append(_progress(snapshot))
             if len(seen) == 3:

@@ -15,7 +15,7 @@ from drive_bridge.config import parse_bus_config
 from drive_bridge.master.master import Master
 from drive_bridge.model import BusConfig
 from drive_bridge.sim import SimulatedBus
-from rostools import wait_for as eventually  # noqa: F401  (one polling helper for all tests)
+from waittools import wait_for as eventually  # noqa: F401  (one polling helper for all tests)
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / 'config' / 'demo.yaml'

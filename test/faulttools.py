@@ -85,9 +85,10 @@ def moving(master: Master, joint: str, seconds: float = 0.3) -> bool:
 
 
 @contextmanager
-def demo_bridge(ros, **parameters: object):
-    """The demo bus node on a private local channel, its simulated drives in this process
-    (``node.simulation``, bridgetools), every axis enabled (auto_enable); both stopped afterwards."""
+def demo_bridge(ros, data: dict | None = None, **parameters: object):
+    """The demo bus node (or ``data``'s) on a private local channel, its simulated drives in this
+    process (``node.simulation``, bridgetools), every axis enabled (auto_enable); both stopped
+    afterwards."""
     from rclpy.parameter import Parameter
 
     from bridgetools import bridge_with_sim
@@ -95,7 +96,7 @@ def demo_bridge(ros, **parameters: object):
     from drive_bridge.cia402.statemachine import State
 
     overrides = {'auto_enable': True, **parameters}
-    with bridge_with_sim(ros, demo_data(), [Parameter(k, value=v) for k, v in overrides.items()]) as node:
+    with bridge_with_sim(ros, data or demo_data(), [Parameter(k, value=v) for k, v in overrides.items()]) as node:
         node.master.wait_until_operational(10.0)
         eventually(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10,
                    'every axis enabled')

@@ -5,18 +5,18 @@ import os
 import signal
 import subprocess
 import threading
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-T = TypeVar('T')
+from waittools import wait_for
+
+__all__ = ['RosHarness', 'ros_harness', 'wait_for']
 
 
 class RosHarness:
@@ -63,18 +63,6 @@ class RosHarness:
         self._thread.join(timeout=5)
 
 
-def wait_for(check: Callable[[], T | None], timeout: float, what: str) -> T:
-    """Poll ``check`` until it returns something truthy."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = check()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise AssertionError(f'timed out after {timeout} s waiting for {what}')
-        time.sleep(0.01)
-
-
 @contextmanager
 def ros_harness() -> Iterator[RosHarness]:
     harness = RosHarness()
@@ -82,36 +70,6 @@ def ros_harness() -> Iterator[RosHarness]:
         yield harness
     finally:
         harness.shutdown()
-
-
-SHM = Path('/dev/shm')
-
-
-def remove_stale_dds_segments() -> int:
-    """Delete Fast DDS shared-memory files (``/dev/shm/fastrtps_*``, ``sem.fastrtps_*``) that no
-    live process maps or holds open: what killed processes left. Returns how many were removed."""
-    if not SHM.is_dir():
-        return 0
-    mapped: set[str] = set()  # mapped or held open (a lock file) by some live process
-    for proc in Path('/proc').glob('[0-9]*'):
-        try:
-            mapped.update(line.rsplit(' ', 1)[-1].strip() for line in (proc / 'maps').read_text().splitlines()
-                          if '/dev/shm/' in line)
-            for fd in (proc / 'fd').iterdir():
-                target = os.readlink(fd)
-                if target.startswith('/dev/shm/'):
-                    mapped.add(target)
-        except OSError:  # the process ended meanwhile, or is not ours
-            continue
-    removed = 0
-    for path in SHM.iterdir():
-        if path.name.startswith(('fastrtps_', 'sem.fastrtps_')) and str(path) not in mapped:
-            try:
-                path.unlink()
-                removed += 1
-            except OSError:
-                pass
-    return removed
 
 
 def interrupt(proc: subprocess.Popen, timeout: float = 20.0) -> str:

@@ -51,6 +51,7 @@ def call_batch(ros: RosHarness, client: Any, requests: list[Any]) -> list[Any]:
                     f'{len(requests)} answers from {client.srv_name}')
 
 
+@pytest.mark.slow
 def test_a_long_run_of_requests_and_emcys_leaves_nothing_behind(ros: RosHarness) -> None:
     node = start_bridge(ros, demo_data(), node_name='bounds_bridge')
     try:

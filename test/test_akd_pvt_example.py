@@ -143,13 +143,15 @@ def test_pvt_example_frame_by_frame() -> None:
         pacer = Pacer()
         free_seen, samples = [], []
         first_stamp = previous_stamp = None
-        irregular = False
+        irregular = jittered = False
         for cycle in range(26):
             free = m.read_u32(NODE, 0x60C4, 2)  # step 8: the buffer, before every segment
             if previous_stamp is not None:
                 t = previous_stamp - first_stamp
                 pending = sum(1 for i in range(min(cycle, len(to_send))) if t < reached_at[i] - 1e-9)
-                if all(abs(t - r) > 0.001 for r in reached_at):
+                # (not once a SYNC came late: on a busy machine the drive's segment clock and the
+                # SYNC stamps then differ by up to that lateness)
+                if not jittered and all(abs(t - r) > 0.001 for r in reached_at):
                     assert free == 9 - pending, f'0x60C4:2 at t={t * 1000:.1f} ms: {free}, expected {9 - pending}'
             if cycle < len(to_send):
                 free_seen.append(free)
@@ -160,6 +162,8 @@ def test_pvt_example_frame_by_frame() -> None:
                 first_stamp = sync.stamp
             elif sync.stamp - previous_stamp > 0.040:
                 irregular = True  # a stalled VM: the drive's clock may have run on its own for a moment
+            if previous_stamp is not None and sync.stamp - previous_stamp > 1.5 * PERIOD:
+                jittered = True
             previous_stamp = sync.stamp
             samples.append((sync.stamp - first_stamp, m.read_i32(NODE, 0x6063), irregular))
             pacer.wait()

@@ -166,6 +166,8 @@ def test_decode_is_faster_than_real_time_and_deterministic(recorded, decoded, tm
     out, seconds = decoded
     topics = read_topics(out)
     recorded_span = (topics['/joint_states'][-1][0] - topics['/joint_states'][0][0]) / 1e9
+    print(f'decode took {seconds:.2f} s for {recorded_span:.2f} s recorded')
+    # about 6x faster than real time on a quiet machine: real time holds on a slow, busy one
     assert seconds < recorded_span, f'decode took {seconds:.2f} s for {recorded_span:.2f} s recorded'
     again = tmp_path / 'again'
     assert main(['replay', str(bag), '--decode', '-o', str(again), '--quiet']) == 0

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import pytest
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import SdoWrite
 from rclpy.parameter import Parameter
@@ -36,6 +37,7 @@ def one(findings: list[dict[str, Any]], kind: str, node: int, text: str = '') ->
     return hits[0]
 
 
+@pytest.mark.slow
 def test_a_bag_the_bridge_recorded_names_each_injected_fault(ros: RosHarness, tmp_path: Path) -> None:
     node = start_bridge(ros, demo_data(), [  # node.simulation: the drives in this process, on the node's bus
         Parameter('auto_enable', value=True),

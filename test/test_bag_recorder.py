@@ -11,7 +11,7 @@ import can
 from drive_bridge.bag.recorder import Recorder
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.writer import string_cdr
-from rostools import wait_for
+from waittools import wait_for
 
 
 def frame(i: int) -> can.Message:
@@ -32,7 +32,7 @@ def test_a_full_queue_drops_and_counts_without_blocking(tmp_path: Path) -> None:
     started = time.monotonic()
     for i in range(550):
         recorder.on_frame(frame(i))
-    assert time.monotonic() - started < 1.0  # the producer never waited
+    assert time.monotonic() - started < 5.0  # the producer never waited (for the held writer: 10 s)
     assert recorder.stats().dropped == 50 and recorder.stats().queued == 500
     release.set()
     stats = recorder.stop()

@@ -23,7 +23,7 @@ from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.typestore import typestore
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
-from rostools import wait_for
+from waittools import wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACES = next((p / 'shared' / 'realdata' / 'traces' for p in ROOT.parents if (p / 'shared').is_dir()), ROOT)
@@ -47,6 +47,9 @@ def messages_on_disk(split: Path) -> int:
     return count
 
 
+@pytest.mark.slow
+@pytest.mark.ros  # the bridge (rclpy, simulated drives) in a process of its own
+@pytest.mark.sim
 def test_killed_bridge_leaves_closed_splits_and_recover_reads_the_open_one(tmp_path: Path) -> None:
     env = {**os.environ, 'PYTHONPATH': str(ROOT), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
            'ROS_DOMAIN_ID': str(101 + os.getpid() % 100)}

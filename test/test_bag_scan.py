@@ -97,7 +97,8 @@ def test_scan_errors_and_an_empty_bus(tmp_path, capsys) -> None:
     assert "interface='nonesuch'" in capsys.readouterr().err
     started = time.monotonic()
     assert main(['scan', '--interface', 'virtual', '--channel', unique_channel('empty'), '--timeout', '0.1']) == 1
-    assert time.monotonic() - started < 2.0, 'all 127 ids are asked at once, not one after the other'
+    # one after the other: 127 x 0.1 s; at once: one timeout (its time: `python -m bench reactions`)
+    assert time.monotonic() - started < 127 * 0.1 / 3, 'all 127 ids are asked at once, not one after the other'
     assert '0 node(s) answered of 127 asked' in capsys.readouterr().out
 
 
@@ -145,6 +146,10 @@ def enabled(joint: str, config: BusConfig) -> Iterator[tuple[JointDriver, Trajec
         master.start()
         master.wait_until_operational(15.0)
         axis = master.axes[joint]
+        if 'error code 0x8130' in axis.fault_description():
+            # the previous master of this test stopped, this one started: on a busy machine more
+            # than the drive's heartbeat consumer time (300 ms) lay between their heartbeats
+            axis.reset_fault(3.0)
         axis.enable(3.0)
         executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
         master.add_cycle_listener(executor.check)

@@ -24,6 +24,7 @@ from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
+pytestmark = pytest.mark.sim  # the drives of `drive-bridge sim`, in a process of their own
 REPO = Path(__file__).resolve().parent.parent
 TOOL = Path(sys.executable).parent / 'drive-bridge'
 

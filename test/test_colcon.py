@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+# a colcon build (minutes) and the installed bridge, a ROS process
+pytestmark = [pytest.mark.slow, pytest.mark.ros]
 REPO = Path(__file__).resolve().parent.parent
 VENV = Path(sys.prefix)
 

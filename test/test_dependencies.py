@@ -22,7 +22,6 @@ PYTHON = {
     'yaml': ('python3-yaml', 'PyYAML'),
     'numpy': ('python3-numpy', 'numpy'),
     'tqdm': ('python3-tqdm', 'tqdm'),
-    'matplotlib': ('python3-matplotlib', 'matplotlib'),
 }
 # declared although no module of drive_bridge/ imports them itself
 RUNTIME_ONLY = {'lifecycle_msgs': 'rclpy.lifecycle, which the managed node uses'}

@@ -18,8 +18,12 @@ from bench.diagnose import synthetic
 from diagnosetools import CONFIG_YAML, NODE, PERIOD, FaultRecording, check_self_contained, record_faults
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cli.main import main
+from timingtools import BUSY_SLACK
 
-TOLERANCE = 0.15  # s between the injection (test thread) and the frame that shows it
+# s between the injection (test thread) and the frame that shows it: a heartbeat period, and
+# what a busy machine holds the threads (below the 1 s between the injections)
+TOLERANCE = 0.5
+pytestmark = pytest.mark.slow  # a recording of 8 s of injected faults, then each diagnosis
 
 
 @pytest.fixture(scope='module')
@@ -69,14 +73,16 @@ def check_faults(data: dict[str, Any], rec: FaultRecording, joint: str | None) -
     assert 'skips a step' in skipped['cause']
     assert abs(skipped['time'] - at(rec, 'skipped-step')) < TOLERANCE
 
+    # the two injected gaps (a busy machine may stall the simulated drive's heartbeat thread
+    # too: such a gap is found as well, and is no injection's)
     gaps = [f for f in findings if f['kind'] == 'heartbeat-gap']
-    assert len(gaps) == 2, gaps
-    lost, rebooted = gaps
+    lost = min(gaps, key=lambda f: abs(f['time'] - at(rec, 'heartbeat-loss')))
+    rebooted, = [f for f in gaps if f['what'].endswith('then boot-up')]
     assert abs(lost['time'] - at(rec, 'heartbeat-loss')) < TOLERANCE
-    assert 0.5 < float(lost['what'].split()[2]) < 0.85 and 'boot-up' not in lost['what']
+    assert 0.5 < float(lost['what'].split()[2]) < 0.6 + BUSY_SLACK and 'boot-up' not in lost['what']  # 0.6 s silent
     assert abs(rebooted['time'] - at(rec, 'reboot')) < TOLERANCE
-    assert rebooted['what'].endswith('then boot-up') and rebooted['cause'] == 'the drive rebooted'
-    assert 1.1 < float(rebooted['what'].split()[2]) < 1.45
+    assert rebooted['cause'] == 'the drive rebooted'
+    assert 1.1 < float(rebooted['what'].split()[2]) < 1.2 + BUSY_SLACK  # 1.2 s silent, then boot-up
 
     restart = one(findings, 'unexpected-restart')
     assert abs(restart['time'] - at(rec, 'boot-up')) < TOLERANCE

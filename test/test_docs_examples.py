@@ -111,6 +111,7 @@ def readme_demo_lines() -> list[str]:
     return ros2_lines('\n'.join(re.findall(r'```bash\n(.*?)```', section, re.S)))
 
 
+@pytest.mark.slow
 def test_interfaces_examples_run_against_the_demo(bridge) -> None:
     lines = [*blocks_of('demo'), *readme_demo_lines()]  # the README's moves the joints: after the commands at 0.0
     assert any('follow_joint_trajectory' in line for line in lines)
@@ -125,6 +126,7 @@ def test_interfaces_parameter_examples_run_against_the_akd_example(bridge) -> No
     run_lines(lines, proc)
 
 
+@pytest.mark.slow
 def test_interfaces_lifecycle_examples_drive_the_managed_node(bridge) -> None:
     lines = blocks_of('lifecycle')
     proc = bridge('bridge_managed', REPO / 'config' / 'demo.yaml')

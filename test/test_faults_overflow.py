@@ -108,7 +108,7 @@ def test_a_second_master_overflows_the_pvt_buffer_and_the_axis_is_held(ros: RosH
     wait_for(lambda: abs(dict(zip(states[-1].name, states[-1].velocity))[JOINT]) < 1e-3, 3, 'standstill')
     held, count = position_of(states[-1]), len(states)
     time.sleep(0.4)
-    assert len(states) > count + 20  # /joint_states keep coming
+    assert len(states) > count + 5  # /joint_states keep coming (about 100 in 0.4 s)
     assert position_of(states[-1]) == pytest.approx(held, abs=1e-4)  # holding, not drifting
     assert here + 0.05 < held < here + 2.0
 

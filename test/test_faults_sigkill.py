@@ -30,8 +30,9 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from bustools import DEMO, demo_data
 from rostools import RosHarness, wait_for
 
-pytestmark = pytest.mark.skipif(importlib.util.find_spec('drive_bridge.cli.sim') is None,
-                                reason='needs drive-bridge sim and the local transport (branch perf)')
+pytestmark = [pytest.mark.sim, pytest.mark.slow,
+              pytest.mark.skipif(importlib.util.find_spec('drive_bridge.cli.sim') is None,
+                                 reason='needs drive-bridge sim and the local transport (branch perf)')]
 REPO = Path(__file__).resolve().parent.parent
 NODES = (2, 3, 4)
 HEARTBEAT_ERROR = 0x8130  # CiA 301: life guard error or heartbeat error

@@ -13,6 +13,7 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.master import Master
 from drive_bridge.sim import SimulatedBus
+from timingtools import BUSY_SLACK
 
 NODE = 6
 GUARD_MS = 40
@@ -37,12 +38,15 @@ def test_guarded_node_boots_and_rtrs_go_out_at_the_guard_time() -> None:
     try:
         with running(config) as (master, sim):
             assert master.nodes['arm'].available
-            mark = sniffer.mark
+            mark, started = sniffer.mark, time.monotonic()
             time.sleep(0.4)
             frames = sniffer.frames(0x700 + NODE, after=mark)
+            took = time.monotonic() - started
             rtrs = [f for f in frames if f.remote]
             replies = [f for f in frames if not f.remote]
-            assert 4 <= len(rtrs) <= 16, f'{len(rtrs)} RTRs in 0.4 s at a {GUARD_MS} ms guard time'
+            # never faster than the guard time; at least a few (a busy machine holds the supervisor)
+            assert 2 <= len(rtrs) <= 1.5 * took * 1000 / GUARD_MS + 2, \
+                f'{len(rtrs)} RTRs in {took:.2f} s at a {GUARD_MS} ms guard time'
             # no heartbeat: every frame the node sends on 0x700 + id answers an RTR, toggling
             assert abs(len(replies) - len(rtrs)) <= 1
             toggles = [f.data[0] & 0x80 for f in replies]
@@ -82,7 +86,7 @@ def test_the_drive_reacts_when_the_bridge_stops_guarding() -> None:
         master._supervisor.join(timeout=2)  # type: ignore[union-attr]
         stopped = time.monotonic()
         eventually(lambda: drive.guarding_lost, 2.0, 'life guarding on the drive')
-        assert time.monotonic() - stopped < GUARD_MS * FACTOR / 1000 + 0.5
+        assert time.monotonic() - stopped < GUARD_MS * FACTOR / 1000 + BUSY_SLACK
         emcy = [f for f in sniffer.frames(0x80 + NODE, after=mark) if len(f.data) >= 2]
         assert any(struct.unpack_from('<H', f.data)[0] == 0x8130 for f in emcy)
         eventually(lambda: drive.axis().state is State.FAULT, 2.0, 'axis faulted by the life guarding reaction')

@@ -20,7 +20,8 @@ import pytest
 
 from drive_bridge.master.guarding import GuardEvent, GuardEventKind, NodeGuard, configure_guarding
 from drive_bridge.model import NodeConfig
-from rostools import wait_for
+from timingtools import BUSY_SLACK
+from waittools import wait_for
 
 NODE_ID = 5
 COB_ID = 0x700 + NODE_ID
@@ -28,8 +29,9 @@ GUARD_TIME = 0.05  # s
 LIFE_TIME_FACTOR = 3
 LIFE_TIME = GUARD_TIME * LIFE_TIME_FACTOR
 SUPERVISOR_PERIOD = 0.02  # as the master's supervisor polls
-# LOST comes at most this late after the life time: one poll period plus scheduling noise
-LOST_MARGIN = 0.15
+# LOST comes at most this late after the life time: one poll period plus scheduling on a busy
+# machine (the latency itself: `python -m bench reactions`)
+LOST_MARGIN = BUSY_SLACK
 OPERATIONAL = 5
 
 _channels = itertools.count()
@@ -124,18 +126,22 @@ def guarded(bench: Bench, guard_time: float = GUARD_TIME) -> NodeGuard:
 
 
 def test_rtrs_go_out_at_the_guard_time_and_replies_keep_the_node_alive(bench: Bench) -> None:
-    guard = guarded(bench)
+    guard_time = 0.2  # a life time of 0.6 s: longer than a busy machine holds the node's thread
+    guard = guarded(bench, guard_time)
+    started = time.monotonic()
     with Supervisor(guard) as supervisor:
-        time.sleep(0.5)
+        time.sleep(1.0)
+    took = time.monotonic() - started
     time.sleep(0.05)  # the last RTR and its reply are through
     sent = len(bench.node.requests)
-    assert 6 <= sent <= 12, f'{sent} RTRs in 0.5 s at a guard time of 50 ms'
+    # about 5: never more often than the guard time, fewer on a busy machine
+    assert 2 <= sent <= took / guard_time + 2, f'{sent} RTRs in {took:.2f} s at a guard time of 200 ms'
     assert all(m.is_remote_frame and m.arbitration_id == COB_ID and m.dlc == 1 for m in bench.node.requests)
     assert supervisor.events == []
     status = guard.status(time.monotonic())
     assert status.replies >= sent - 2 and status.requests == sent
     assert (status.lost, status.nmt_state, status.toggle_errors) == (False, OPERATIONAL, 0)
-    assert status.age is not None and status.age < LIFE_TIME
+    assert status.age is not None and status.age < LIFE_TIME_FACTOR * guard_time
     guard.detach()
 
 

@@ -99,15 +99,32 @@ def demo(ros: RosHarness) -> Any:
     bench.close()
 
 
-def fastest(frames: list[tuple[float, float]]) -> float:
-    """The largest set-point change between two frames the drive received, per cycle of the time
-    between them, allowing one cycle of send jitter (a late cycle carries the motion of the time
-    it waited, as the cycle check allows; a jump carries far more)."""
-    pairs = zip(frames, frames[1:])
-    return max((abs(b - a) / ((max(tb - ta, PERIOD) + PERIOD) / PERIOD) for (a, ta), (b, tb) in pairs), default=0.0)
+MAX_VELOCITY = 2.0  # base_joint's limits.max_velocity, rad/s
+# s a cycle thread may be held between its SYNC and the set-points it sends (a busy machine): a
+# frame then carries the motion up to its grid time, that much after its send time
+PREEMPTION = 0.02
+WINDOW = 0.2  # s: the speed over the motion, measured over windows at least this long
 
 
-MAX_STEP = 2.0 * PERIOD * 1.05 + 1e-4  # base_joint: max_velocity 2 rad/s, one cycle
+def beyond_velocity(frames: list[tuple[float, float]], velocity: float = MAX_VELOCITY) -> list[str]:
+    """What in the set-points the drive received (target, send time) moved faster than ``velocity``:
+    a jump between two frames (more than the motion of the time between them, one cycle and a
+    held cycle thread allowed: a jump carries far more), and a window of WINDOW s or more over
+    which the set-points moved faster on average (5 % allowed, the edges' cycles and a held
+    thread too: catches a motion that was not slowed to the limit, which the pairs alone cannot
+    tell from send jitter)."""
+    found = []
+    for (a, ta), (b, tb) in zip(frames, frames[1:]):
+        if abs(b - a) > velocity * (max(tb - ta, PERIOD) + PERIOD + PREEMPTION) + 1e-4:
+            found.append(f'jump {b - a:+.4f} in {1000 * (tb - ta):.1f} ms')
+    start = 0
+    for end in range(len(frames)):
+        while frames[end][1] - frames[start][1] > WINDOW and start < end:
+            start += 1
+        (a, ta), (b, tb) = frames[start - 1 if start else 0], frames[end]
+        if tb - ta >= WINDOW and abs(b - a) > 1.05 * velocity * (tb - ta + 2 * PERIOD + PREEMPTION) + 1e-4:
+            found.append(f'{(b - a) / (tb - ta):+.3f} rad/s over {1000 * (tb - ta):.0f} ms')
+    return found
 
 
 def test_1_the_step_and_the_overshoot_are_refused_and_no_set_point_beyond_a_limit_reaches_the_drive(demo: Demo) -> None:
@@ -131,7 +148,7 @@ def test_1_the_step_and_the_overshoot_are_refused_and_no_set_point_beyond_a_limi
              'the refusal on /diagnostics')
     targets = demo.base_targets(mark)
     assert targets and max(abs(t - here) for t in targets) < 0.01, 'a refused set-point reached the drive'
-    assert fastest(demo.base_frames(mark)) <= MAX_STEP
+    assert not beyond_velocity(demo.base_frames(mark))
     refused = demo.call(AxisCommand, 'resume', joints=['base_joint'])
     assert refused.success, refused.message
 
@@ -145,7 +162,7 @@ def test_1_with_scale_to_limits_the_step_is_stretched_and_every_step_stays_withi
         wait_for(lambda: abs(demo.position('base_joint') - (here + 0.5)) < 2e-3, 5, 'the stretched motion done')
         targets = demo.base_targets(mark)
         assert max(targets) <= here + 0.5 + 1e-4
-        assert fastest(demo.base_frames(mark)) <= MAX_STEP  # never faster than max_velocity
+        assert not beyond_velocity(demo.base_frames(mark))  # never faster than max_velocity
         assert not [e for e in demo.errors if 'base_joint' in e]
     finally:
         demo.close()
@@ -159,7 +176,7 @@ def test_2_a_past_stamp_starts_from_the_current_state_without_a_jump(demo: Demo)
     wait_for(lambda: abs(demo.position('base_joint') - (here + 1.67)) < 2e-3, 5, 'the end of the trajectory')
     targets = demo.base_targets(mark)
     assert abs(targets[0] - here) < 0.02, 'the first set-point jumped'
-    assert fastest(demo.base_frames(mark)) <= MAX_STEP
+    assert not beyond_velocity(demo.base_frames(mark))
     demo.send([(1.0, here, None)], stamp=now - 5.0)  # ends in the past: still refused
     demo.error('in the past')
 

@@ -15,6 +15,7 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
+from timingtools import assert_follows
 
 JOINT = 'wheel_joint'
 NODE = 5
@@ -58,7 +59,7 @@ def test_a_pv_joint_follows_a_trajectory_through_the_bridges_loop() -> None:
         final = axis.snapshot()
         assert abs(final.position - (start + 1.0)) < 5e-3  # the loop holds the last desired position
         assert abs(final.velocity) < 0.05
-        assert errors and max(errors) < 0.05, f'path error up to {max(errors):.4f} rad'
+        assert_follows(errors, 0.05)
         # the drive only ever saw velocity set-points (pv): nothing went to 0x607A
         assert sim.drive(NODE).axis().mode == 3 and axis.snapshot().state is State.OPERATION_ENABLED
 

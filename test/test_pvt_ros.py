@@ -21,6 +21,7 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
 from rostools import RosHarness, wait_for
+from timingtools import assert_follows
 
 NS = '/drive_bridge'
 CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'akd_pvt_example.yaml'
@@ -75,7 +76,7 @@ def test_pvt_follows_the_path_and_never_overflows_the_buffer(ros, bridge) -> Non
     errors = [abs(position_of(m) - ideal.sample(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9).position)
               for m in states if start <= m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 <= start + 1.2]
     assert len(errors) > 100
-    assert max(errors) < 0.03, max(errors)  # rad, at up to 2 rad/s: cubic segments + one SYNC of timing
+    assert_follows(errors, 0.03)  # rad, at up to 2 rad/s: cubic segments + one SYNC of timing
     wait_for(lambda: abs(position_of(states[-1]) - (here + 1.2)) < 1e-3, 3, 'the goal')
     feeder = bridge.trajectories.feeder(JOINT)
     assert feeder.stats.points > 100 and feeder.stats.motions == 1

@@ -27,6 +27,7 @@ from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
 from rostools import RosHarness, wait_for
+from timingtools import BUSY_SLACK, CycleWatch, assert_follows, stamp_of, stamped_count
 
 JOINTS = ['base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint']
 SLOTS = {'base_joint': (2, 0), 'shoulder_joint': (3, 0), 'elbow_joint': (3, 1), 'lift_joint': (4, 0)}
@@ -74,14 +75,17 @@ def latest_positions(states: Recorder) -> dict[str, float]:
 def test_joint_states_arrive_stamped_in_si_every_cycle(ros: RosHarness, bridge: BusNode) -> None:
     states = Recorder(ros, JointState, '/joint_states')
     wait_for(lambda: len(states.messages) > 60, 10, '60 joint states')
-    started = len(states.messages)
+    watch, start = CycleWatch(bridge.master), time.time()
     time.sleep(0.5)
-    rate = (len(states.messages) - started) / 0.5
-    assert rate > 100, f'{rate:.0f} joint states/s at a 4 ms SYNC'  # one per SYNC (250/s), generous
+    cycles, end = watch.cycles, time.time()
+    time.sleep(0.3)  # what was published in the window arrives
+    published = stamped_count(states.messages, start, end)
+    # one per SYNC: counted against the cycles the bridge ran (on a busy machine fewer than the
+    # 125 of the grid), generous for messages a lagging subscriber misses
+    assert cycles > 0 and published > 0.5 * cycles, (published, cycles)
     msg = states.messages[-1]
     assert list(msg.name) == JOINTS
-    stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-    assert abs(stamp - time.time()) < 0.5
+    assert abs(stamp_of(msg) - time.time()) < BUSY_SLACK
     stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in states.messages[-50:]]
     assert all(b >= a for a, b in zip(stamps, stamps[1:]))
     for joint, position in latest_positions(states).items():
@@ -114,7 +118,7 @@ def test_a_joint_trajectory_moves_the_axes_along_its_path(ros: RosHarness, bridg
         Trajectory(tuple(goal), tuple(TrajectoryPoint(p.time_from_start.sec + p.time_from_start.nanosec * 1e-9,
                                                       tuple(p.positions), tuple(p.velocities)) for p in msg.points)),
         start, {j: JointSample(start_positions[j], 0.0, 0.0) for j in goal})
-    worst = {j: 0.0 for j in goal}
+    errors: dict[str, list[float]] = {j: [] for j in goal}
     checked = 0
     # a stalled cycle thread delays the stream (never jumps it): the path error allows for the
     # delay the stream accumulated
@@ -124,12 +128,12 @@ def test_a_joint_trajectory_moves_the_axes_along_its_path(ros: RosHarness, bridg
         if start <= t <= start + 1.4:
             for joint, position in zip(m.name, m.position):
                 if joint in goal:
-                    error = min(abs(position - ideal[joint].sample(t - shift).position) for shift in shifts)
-                    worst[joint] = max(worst[joint], error)
+                    errors[joint].append(min(abs(position - ideal[joint].sample(t - shift).position)
+                                             for shift in shifts))
             checked += 1
     assert checked > 100
-    assert worst['base_joint'] < 0.02, worst  # rad: drive lag and one SYNC of set-point latency
-    assert worst['lift_joint'] < 0.003, worst  # m
+    assert_follows(errors['base_joint'], 0.02)  # rad: drive lag and one SYNC of set-point latency
+    assert_follows(errors['lift_joint'], 0.003)  # m
     wait_for(lambda: all(abs(latest_positions(states)[j] - p) < 1e-3 for j, p in goal.items()), 3, 'the goal')
     final = latest_positions(states)
     assert final['shoulder_joint'] == pytest.approx(start_positions['shoulder_joint'], abs=1e-3)

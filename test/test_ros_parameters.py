@@ -28,6 +28,7 @@ from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 from drive_bridge.ros.parameters import RUN_TIME, START_TIME
 from rostools import RosHarness, ros_harness, wait_for
+from timingtools import CycleWatch, stamped_count
 
 INTERFACES_DOC = Path(__file__).resolve().parent.parent / 'docs' / 'interfaces.md'
 
@@ -60,9 +61,22 @@ class ParameterClient:
 
 
 def rate(messages: list[Any], seconds: float) -> float:
-    start = len(messages)
+    """Messages per second stamped over the next ``seconds`` (by their header stamps: a backlog
+    delivered after a stall of this busy machine is not counted in the new rate)."""
+    start = time.time()
     time.sleep(seconds)
-    return (len(messages) - start) / seconds
+    end = time.time()
+    time.sleep(0.3)  # what was published in the window arrives
+    return stamped_count(messages, start, end) / (end - start)
+
+
+def per_cycle(messages: list[Any], node: BusNode, seconds: float) -> float:
+    """Messages stamped over the next ``seconds`` per SYNC cycle the bridge ran meanwhile."""
+    watch, start = CycleWatch(node.master), time.time()
+    time.sleep(seconds)
+    cycles, end = watch.cycles, time.time()
+    time.sleep(0.3)
+    return stamped_count(messages, start, end) / max(1, cycles)
 
 
 @pytest.fixture(scope='module')
@@ -98,6 +112,7 @@ def test_start_time_parameters_are_refused_while_running(running: tuple[RosHarne
     assert node.master.config.master.sync_period == 0.004
 
 
+@pytest.mark.slow
 def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness, BusNode, ParameterClient]) -> None:
     ros, node, client = running
     listener = ros.node('params_listener')
@@ -108,22 +123,23 @@ def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness
     listener.create_subscription(JointState, '/joint_states', states.append, 100)
     listener.create_subscription(DiagnosticArray, '/diagnostics', diagnostics.append, 100)
     wait_for(lambda: len(states) > 20, 10, 'joint states')
-    every_cycle = rate(states, 1.0)
-    assert every_cycle > 100  # 4 ms SYNC: about 250 Hz
+    # the rates: upper bounds as set, lower bounds only that it publishes (a busy machine slows
+    # timers and cycles down, never up)
+    assert per_cycle(states, node, 1.0) > 0.5  # one per SYNC (4 ms: about 250 Hz)
 
     assert client.set('publish_rate', 20.0).successful
     assert client.get('publish_rate') == 20.0
     slowed = rate(states, 1.5)
-    assert 8 < slowed < 30, slowed
+    assert 2 < slowed < 30, slowed
     assert client.set('diagnostics_period', 0.1).successful
     time.sleep(0.3)
-    assert rate(diagnostics, 1.5) > 5  # was 1 Hz
+    assert rate(diagnostics, 1.5) > 2  # was 1 Hz, now 10
     assert client.set('state_rate', 0.0).successful  # on change only: the axes stand still
     time.sleep(0.3)
     assert rate(axis_states, 1.0) < 3
     assert client.set('state_rate', 40.0).successful
     time.sleep(0.2)
-    assert rate(axis_states, 1.0) > 20
+    assert rate(axis_states, 1.0) > 5  # 40 Hz, where on change alone gives none
 
     flood = client.set('diagnostics_period', 1e-6)
     assert not flood.successful
@@ -143,7 +159,7 @@ def test_run_time_parameters_are_validated_and_applied(running: tuple[RosHarness
     assert client.get('publish_rate') == 20.0  # nothing of a refused atomic set is applied
     assert client.set('publish_rate', 0.0).successful and client.set('diagnostics_period', 1.0).successful
     assert client.set('state_rate', 10.0).successful
-    assert rate(states, 1.0) > 100
+    assert per_cycle(states, node, 1.0) > 0.5
 
 
 def test_lifecycle_node_takes_parameters_until_configured_and_again_after_cleanup() -> None:

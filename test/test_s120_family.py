@@ -40,6 +40,7 @@ from drive_bridge.model import AxisConfig, BusConfig, PdoConfig, PdoEntry
 from drive_bridge.sim import SimulatedBus
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
+from timingtools import assert_follows
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLE = REPO / 'config' / 's120_example.yaml'
@@ -435,7 +436,7 @@ def test_a_quintic_trajectory_on_a_pv_joint_through_the_bridges_loop() -> None:
         handle = executor.submit(trajectory)  # 1 rad in 1.5 s, quintic
         assert handle is not None and handle.wait(6.0)
         assert handle.state == 'succeeded', handle.reason
-        assert errors and max(errors) < 0.05, f'path error up to {max(errors):.4f} rad'
+        assert_follows(errors, 0.05)
         eventually(lambda: drive.view(2).setpoint == 0, 3.0, '0x60FF = 0 at rest')
         held = drive.view(2).position * RAD_PER_INC
         assert held == pytest.approx(start + 1.0, abs=5e-3)

@@ -28,6 +28,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from nodebench import NS, NodeBench, point
 from rostools import RosHarness, wait_for
+from timingtools import assert_follows
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLE = REPO / 'config' / 's120_example.yaml'
@@ -111,8 +112,7 @@ def test_follow_joint_trajectory_on_a_pv_joint_through_the_bridges_loop(bench: B
     result = wait_for(lambda: future.result() if future.done() else None, 15, 'result').result
     assert (result.error_code, result.error_string) == (Result.SUCCESSFUL, '')
     assert len(samples) > 20
-    error = max(abs(d - a) for d, a in samples)
-    assert error < 0.06, f'0x6063 up to {error:.4f} rad off the desired path'  # tolerance 0.05 + one period
+    assert_follows([abs(d - a) for d, a in samples], 0.06)  # 0x6063 off the desired path: tolerance 0.05 + one period
     wait_for(lambda: drive.view(2).setpoint == 0, 3, '0x60FF = 0 at rest')
     held = drive.view(2).position * RAD_PER_INC
     assert held == pytest.approx(start + 1.0, abs=5e-3)

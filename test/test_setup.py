@@ -9,11 +9,13 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import yaml
 from drive_bridge_interfaces.msg import CanFrame
 
 import ros2cli
 from rostools import RosHarness, interrupt, wait_for
+from shelltools import from_background_shell
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -26,12 +28,19 @@ def test_second_bootstrap_is_a_fast_no_op() -> None:
     elapsed = time.monotonic() - started
     assert run.returncode == 0, run.stderr
     assert 'installing' not in run.stderr and 'building' not in run.stderr, run.stderr
-    assert elapsed < 10, f'bootstrap took {elapsed:.1f} s with everything in place'
+    # a full bootstrap takes 1.5 min on a quiet machine; a no-op about 2 s (more on a busy one)
+    assert elapsed < 30, f'bootstrap took {elapsed:.1f} s with everything in place'
 
 
-def test_demo_bridge_publishes_until_sigint(ros: RosHarness) -> None:
-    exe = Path(sys.prefix) / 'bin' / 'bridge'
-    proc = subprocess.Popen([str(exe)], env=dict(os.environ), stdout=subprocess.PIPE,
+@pytest.mark.parametrize('signum, started', [(signal.SIGINT, 'from a terminal'),
+                                             (signal.SIGINT, 'by a background shell'),
+                                             (signal.SIGTERM, 'by a background shell')],
+                         ids=['SIGINT', 'SIGINT, inherited ignored', 'SIGTERM, SIGINT inherited ignored'])
+def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, signum: int, started: str) -> None:
+    """Stopped by the signal whatever it inherited: a background shell starts it with SIGINT ignored."""
+    exe = [str(Path(sys.prefix) / 'bin' / 'bridge')]
+    proc = subprocess.Popen(from_background_shell(exe) if started == 'by a background shell' else exe,
+                            env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
     try:
         frames: list[CanFrame] = []
@@ -39,9 +48,10 @@ def test_demo_bridge_publishes_until_sigint(ros: RosHarness) -> None:
         wait_for(lambda: len(frames) >= 20, 30, '20 frames from the demo bridge')
         assert all(f.header.frame_id == 'drive_bridge_demo' for f in frames)
         assert proc.poll() is None
-        os.killpg(proc.pid, signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
-        assert proc.returncode == 0, out
+        os.killpg(proc.pid, signum)
+        out, _ = proc.communicate(timeout=30)
+        assert proc.returncode == 0, out  # a clean stop: motion stopped, the bus released
+        assert 'Traceback' not in out, out
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -119,6 +129,7 @@ def test_readme_trajectory_example_moves_the_demo(ros: RosHarness, tmp_path: Pat
     assert arrived, f'the README example did not move the demo; the bridge printed: {out[-2000:]}'
 
 
+@pytest.mark.slow
 def test_readme_your_drive_in_ten_lines(tmp_path: Path) -> None:
     """The README's "your drive in ten lines" as a new user runs it: its YAML as my_bus.yaml,
     its two commands (drive-bridge sim, then the bridge, over the local transport), its Python

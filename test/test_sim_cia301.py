@@ -13,6 +13,7 @@ import pytest
 from drive_bridge.cia402.statemachine import State, state_from_statusword
 from drive_bridge.sim import SimulatedSlave
 from drive_bridge.sim.testing import Frame, SimBench, SyncLoop, wait_until
+from timingtools import BUSY_SLACK
 
 NODE = 5
 HEARTBEAT = 0x700 + NODE
@@ -45,9 +46,10 @@ def test_boot_up_frame_then_heartbeat_at_the_producer_period(bench: SimBench) ->
     t1 = time.monotonic()
     time.sleep(0.5)
     beats = bench.log.frames(HEARTBEAT, since=t1)
+    took = time.monotonic() - t1
     assert beats and all(f.data == b'\x7f' for f in beats)
     intervals = [b.timestamp - a.timestamp for a, b in zip(beats, beats[1:])]
-    assert 18 <= len(beats) <= 27
+    assert 5 <= len(beats) <= took / 0.020 + 2  # never faster than 20 ms (a busy machine: slower)
     assert statistics.median(intervals) == pytest.approx(0.020, abs=0.004)
     start(bench, sim)
     t2 = time.monotonic()
@@ -246,36 +248,39 @@ def test_event_driven_tpdo_on_change_and_by_event_timer(bench: SimBench) -> None
     start(bench, sim)
     time.sleep(0.3)
     frames = bench.log.frames(TPDO1, since=t)
-    assert 12 <= len(frames) <= 18, 'sent on entering OPERATIONAL, then every 20 ms without SYNC'
+    took = time.monotonic() - t
+    assert 4 <= len(frames) <= took / 0.020 + 3, 'sent on entering OPERATIONAL, then every 20 ms without SYNC'
     assert statistics.median(b.timestamp - a.timestamp for a, b in zip(frames, frames[1:])) \
         == pytest.approx(0.020, abs=0.005)
+    node.sdo[0x1800][5].raw = 1000  # a 1 s timer from its next frame on: "at once" is told from it on a busy machine
+    time.sleep(0.1)
     t = time.monotonic()
     node.sdo.download(0x6040, 0, struct.pack('<H', 0x06))
     def changed() -> list[Frame]:  # a timer frame may go out between t and the write: skip it
         return [f for f in bench.log.frames(TPDO1, since=t)
                 if state_from_statusword(struct.unpack_from('<H', f.data)[0]) is State.READY_TO_SWITCH_ON]
-    wait_until(lambda: bool(changed()), 0.2, 'TPDO1 with the new statusword')
-    assert changed()[0].timestamp - t < 0.015, 'a change is sent at once, not at the next timer'
+    wait_until(lambda: bool(changed()), 1.5, 'TPDO1 with the new statusword')
+    assert changed()[0].timestamp - t < 0.5, 'a change is sent at once, not at the next timer (1 s)'
 
 
 def test_inhibit_time_spaces_event_driven_tpdos(bench: SimBench) -> None:
     sim, node = bench.add_drive(NODE)
     node.sdo[0x1800][1].raw = 0x80000000 | TPDO1
     node.sdo[0x1800][2].raw = 254
-    node.sdo[0x1800][3].raw = 500  # 50 ms
+    node.sdo[0x1800][3].raw = 2000  # 200 ms: long beside a busy machine's stalls
     node.sdo[0x1800][1].raw = TPDO1
     start(bench, sim)
     first = bench.log.wait_for(TPDO1)[0].timestamp
     for cw in (0x06, 0x07):  # two changes inside the inhibit time: one frame, the latest value
         node.sdo.download(0x6040, 0, struct.pack('<H', cw))
-    frames = bench.log.wait_for(TPDO1, 2, timeout=0.5)
-    assert frames[1].timestamp - first >= 0.045
+    frames = bench.log.wait_for(TPDO1, 2, timeout=1.0)
+    assert frames[1].timestamp - first >= 0.195
     assert state_from_statusword(struct.unpack_from('<H', frames[1].data)[0]) is State.SWITCHED_ON
-    time.sleep(0.08)
+    time.sleep(0.25)
     assert len(bench.log.frames(TPDO1)) == 2
-    t = time.monotonic()  # the inhibit time is over: the next change goes out at once
+    t = time.monotonic()  # the inhibit time is over: the next change goes out at once, not 200 ms on
     node.sdo.download(0x6040, 0, struct.pack('<H', 0x06))
-    assert bench.log.wait_for(TPDO1, 3, timeout=0.5)[2].timestamp - t < 0.015
+    assert bench.log.wait_for(TPDO1, 3, timeout=1.0)[2].timestamp - t < 0.15
 
 
 def test_remapping_over_sdo_changes_what_is_sent(bench: SimBench) -> None:
@@ -336,7 +341,7 @@ def test_sdo_delay_holds_responses_without_blocking_the_bus(bench: SimBench) -> 
     assert answer.timestamp - t >= 0.095
     began = time.monotonic()
     assert node.sdo[0x1000].raw == 0x00020192
-    assert 0.095 <= time.monotonic() - began < 0.3
+    assert 0.095 <= time.monotonic() - began < 0.1 + BUSY_SLACK
     sim.set_sdo_delay(0)
 
 

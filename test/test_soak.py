@@ -3,7 +3,11 @@ are injected at random. Bounds are generous (a noisy 2-core CI): every fault rep
 recovered from, no frame lost, no thread left over, memory growth far under 20 MB."""
 from __future__ import annotations
 
+import pytest
+
 from bench.soak import CATALOGUE, report, run
+
+pytestmark = [pytest.mark.slow, pytest.mark.sim]  # 30 s of simulated drives
 
 
 def test_thirty_seconds_of_faults_while_streaming(capsys) -> None:

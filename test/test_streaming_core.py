@@ -8,6 +8,7 @@ from bustools import config_from, demo_data, running
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
+from timingtools import BUSY_SLACK
 
 
 def test_a_stalled_sync_thread_delays_the_trajectory_instead_of_faulting_the_drive() -> None:
@@ -31,7 +32,8 @@ def test_a_stalled_sync_thread_delays_the_trajectory_instead_of_faulting_the_dri
             TrajectoryPoint(0.5, (here - 0.1375,), (-0.55,)), TrajectoryPoint(1.0, (here - 0.4125,), (-0.55,)),
             TrajectoryPoint(1.5, (here - 0.55,), (0.0,)))))
         assert handle.wait(5.0)
-        assert stalled and executor.stalls >= 1 and 0.15 < executor.lag < 0.35
+        # the stream clock fell behind by the stall (200 ms, more on a busy machine)
+        assert stalled and executor.stalls >= 1 and 0.15 < executor.lag < 0.2 + BUSY_SLACK, executor.lag
         assert handle.state == 'succeeded', handle.reason
         assert axis.snapshot().state is State.OPERATION_ENABLED  # no following error fault
         time.sleep(0.3)

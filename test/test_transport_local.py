@@ -114,7 +114,8 @@ def test_a_peer_that_does_not_read_costs_the_sender_one_timeout_not_one_per_fram
         for i in range(3000):  # far more than a datagram queue holds: the stalled peer's fills
             sender.send(frame(0x100 + i % 16))
         took = time.monotonic() - started
-        assert sender.dropped > 0 and took < 1.0, (sender.dropped, took)  # 50 ms for each dropped before
+        # 50 ms for each dropped frame before (minutes); one timeout now (about 0.1 s idle)
+        assert sender.dropped > 100 and took < 5.0, (sender.dropped, took)
         while stalled.recv(0) is not None:  # it reads again: it gets frames again
             pass
         sender.send(frame(0x7FF))

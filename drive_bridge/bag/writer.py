@@ -15,17 +15,19 @@ from __future__ import annotations
 
 import struct
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
-import can
 import yaml
 from mcap.writer import CompressionType, Writer
 
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.typestore import typestore
+
+if TYPE_CHECKING:  # frames arrive as can.Message from the recorder; the importer needs no python-can
+    import can
 
 FRAMES_TOPIC = '/can/frames'
 FRAME_TYPE = 'drive_bridge_interfaces/msg/CanFrame'
@@ -37,7 +39,6 @@ CHUNK_BYTES = 256 * 1024  # what a killed recorder loses of a split at most, bes
 RECORD_OVERHEAD = 31      # bytes an MCAP message record adds to its payload
 ROSBAG2_VERSION = 9
 
-_TIME = struct.Struct('<4siI')
 FRAME_HEAD = struct.Struct('<IBBBBI')  # CanFrame: id, ext, rtr, err, dlc, data length (writer and reader)
 _CDR_LE = b'\x00\x01\x00\x00'
 
@@ -67,24 +68,34 @@ def file_text(data: bytes) -> str:
 
 
 class FrameEncoder:
-    """CanFrame CDR by hand (struct, no message objects): the recorder's hot path."""
+    """CanFrame CDR by hand (struct, no message objects): the recorder's and the importer's hot
+    path. Per channel one struct packs the CDR header, the stamp, the frame id and the frame's
+    fixed fields; the data bytes and the direction byte follow."""
 
     def __init__(self) -> None:
+        self._heads: dict[str, struct.Struct] = {}
         self._frame_ids: dict[str, bytes] = {}
 
     def encode(self, msg: can.Message, channel: str) -> tuple[int, bytes]:
         """(timestamp ns, CDR) of a frame; direction TX for frames the master sent."""
-        stamp = round(msg.timestamp * 1e9)
-        frame_id = self._frame_ids.get(channel)
-        if frame_id is None:
-            frame_id = self._frame_ids[channel] = cdr_string(channel)
-        data = bytes(msg.data)
+        return self.pack(msg.timestamp, msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame,
+                         msg.is_error_frame, not msg.is_rx, msg.dlc, bytes(msg.data), channel)
+
+    def pack(self, timestamp: float, ident: int, ext: bool, rtr: bool, err: bool, tx: bool, dlc: int,
+             data: bytes, channel: str) -> tuple[int, bytes]:
+        """(timestamp ns, CDR) of a frame given by its fields (``data``: the data field as stored)."""
+        stamp = round(timestamp * 1e9)
+        head = self._heads.get(channel)
+        if head is None:
+            head = self._head(channel)
         sec, nsec = divmod(stamp, 1_000_000_000)
-        return stamp, b''.join((
-            _TIME.pack(_CDR_LE, sec, nsec), frame_id,
-            FRAME_HEAD.pack(msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame,
-                        msg.is_error_frame, msg.dlc, len(data)),
-            data, b'\x00' if msg.is_rx else b'\x01'))
+        return stamp, head.pack(_CDR_LE, sec, nsec, self._frame_ids[channel], ident, ext, rtr, err, dlc,
+                                len(data)) + data + (b'\x01' if tx else b'\x00')
+
+    def _head(self, channel: str) -> struct.Struct:
+        frame_id = self._frame_ids[channel] = cdr_string(channel)
+        head = self._heads[channel] = struct.Struct(f'<4siI{len(frame_id)}s{FRAME_HEAD.format[1:]}')
+        return head
 
 
 @dataclass
@@ -173,6 +184,47 @@ class BagWriter:
         stamp, cdr = self._encoder.encode(msg, channel or str(msg.channel or ''))
         self.write(FRAMES_TOPIC, FRAME_TYPE, stamp, cdr)
         self.frames += 1
+
+    def write_frames(self, frames: Iterable[tuple[int, bytes]]) -> None:
+        """Many CAN frames, (timestamp ns, CDR) as ``FrameEncoder`` makes them, on ``/can/frames``:
+        an importer's loop. A bag that does not split takes them in one tight loop (the counts and
+        times updated once); one that splits, frame by frame as ``write_frame``."""
+        frames = iter(frames)
+        if self.split_bytes is not None or self.split_ns is not None or self.closed:
+            for stamp, cdr in frames:
+                self.write(FRAMES_TOPIC, FRAME_TYPE, stamp, cdr)
+                self.frames += 1
+            return
+        for stamp, cdr in frames:  # the first: opens the split and the channel
+            self.write(FRAMES_TOPIC, FRAME_TYPE, stamp, cdr)
+            self.frames += 1
+            break
+        split = self._split
+        if split is None:
+            return
+        assert self._mcap is not None
+        add = self._mcap.add_message
+        channel = self._channels[FRAMES_TOPIC]
+        count = size = 0
+        low, high = split.start_ns, split.end_ns
+        try:
+            for stamp, cdr in frames:
+                add(channel, stamp, cdr, stamp)
+                count += 1
+                size += len(cdr)
+                if stamp < low:
+                    low = stamp
+                elif stamp > high:
+                    high = stamp
+        finally:
+            split.count += count
+            split.topics[FRAMES_TOPIC] += count
+            split.start_ns, split.end_ns = low, high
+            self.topics[FRAMES_TOPIC].count += count
+            self.messages += count
+            self.frames += count
+            self._split_bytes += size + count * RECORD_OVERHEAD
+            self.bytes_written += size + count * RECORD_OVERHEAD
 
     def flush(self) -> None:
         """Write the pending chunk to disk: a killed recorder loses only what came after."""

@@ -6,13 +6,15 @@ import os
 import sys
 
 from drive_bridge.resources import shipped_config
+from drive_bridge.stopsignals import exit_code, stop_on_signals
 
 DEMO_ROS_ARGS = ['--ros-args', '-p', 'auto_enable:=true']
 
 
 def bridge_main(argv: list[str] | None = None, managed: bool = False) -> None:
     """``bridge [CONFIG] [--ros-args ...]``: run the bus node; no CONFIG runs the demo
-    (simulated drives on a virtual bus, enabled once booted)."""
+    (simulated drives on a virtual bus, enabled once booted). SIGINT or SIGTERM stops it
+    whatever the process inherited: the node stops motion, releases the bus, exits 0."""
     args = sys.argv[1:] if argv is None else argv
     ros_args = args[args.index('--ros-args'):] if '--ros-args' in args else []
     own = args[:len(args) - len(ros_args)]
@@ -27,8 +29,15 @@ def bridge_main(argv: list[str] | None = None, managed: bool = False) -> None:
         ros_args = [*DEMO_ROS_ARGS, *ros_args]
         # The demo must keep DDS on loopback unless the user chose otherwise.
         os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    from drive_bridge.ros.main import run  # imports rclpy: only after the environment is set
-    raise SystemExit(run(config, ['bridge', *ros_args], managed=managed))
+    # Our handlers first: rclpy.init() installs its own (they wake the executor) and chains to
+    # them, so the signal ends the spin even where SIGINT came in ignored.
+    try:
+        with stop_on_signals(interrupt=True):
+            from drive_bridge.ros.main import run  # imports rclpy: only after the environment is set
+            code = run(config, ['bridge', *ros_args], managed=managed)
+    except KeyboardInterrupt as exc:  # before the spin (importing, booting the bus)
+        code = exit_code(exc)
+    raise SystemExit(code)
 
 
 def params_files_set_config(ros_args: list[str]) -> bool:

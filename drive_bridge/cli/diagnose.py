@@ -1,7 +1,7 @@
 """``drive-bridge diagnose``: a bag or trace (+ config / EDS) -> HTML report, JSON and a summary.
 
-Only argparse is imported to configure the verb: the diagnosis, the readers and matplotlib
-(the report's plots) are imported when it runs, and matplotlib only for the HTML report.
+Only argparse is imported to configure the verb: the diagnosis and the readers are imported
+when it runs, the HTML report's modules only when it is written.
 """
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     data = to_json(diagnosis)
     output = None
     if not args.no_html:
-        from drive_bridge.bag.diagnose.report_html import render  # matplotlib: only when writing HTML
+        from drive_bridge.bag.diagnose.report_html import render  # only when writing HTML
         output = args.output or Path(f'{args.input.name}.diagnosis.html')
         _write(output, render(diagnosis, data), DiagnoseError)
     if args.json is not None:

@@ -2,7 +2,7 @@
 
 Each subcommand is a module of this package that follows :class:`Subcommand`; adding one is
 one line in ``COMMANDS``. Modules are imported when their verb runs, so ``--help`` and a
-fast verb do not pay for rclpy, rosbags or matplotlib.
+fast verb do not pay for rclpy, rosbags or canopen.
 """
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from typing import cast
 
 from drive_bridge.cli.command import Subcommand
 from drive_bridge.errors import DriveBridgeError
+from drive_bridge.stopsignals import exit_code, stop_on_signals
 
 # (verb, module under drive_bridge.cli, one-line help): the one place of a verb's name and help
 # (here, so that listing the verbs imports nothing).
@@ -49,18 +50,25 @@ def build_parser(verb: str | None = None) -> tuple[argparse.ArgumentParser, dict
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Parse, run the verb, and turn a :class:`DriveBridgeError` into one line on stderr."""
+    """Parse, run the verb, and turn a :class:`DriveBridgeError` into one line on stderr.
+
+    SIGINT and SIGTERM stop a verb whatever the process inherited (:mod:`drive_bridge.stopsignals`):
+    one busy in a long call is interrupted, cleans up and exits 130 (SIGINT) or 143 (SIGTERM);
+    ``record`` and ``sim``, which run until stopped, take the signal as their normal end (exit 0).
+    """
     args_list = sys.argv[1:] if argv is None else argv
     verb = next((a for a in args_list if not a.startswith('-')), None)
     parser, loaded = build_parser(verb)
     args = parser.parse_args(args_list)
     try:
-        return loaded[args.verb].run(args)
+        with stop_on_signals(interrupt=True):
+            return loaded[args.verb].run(args)
     except DriveBridgeError as exc:
         print(f'{PROG} {args.verb}: error: {exc}', file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:
+        print(f'{PROG} {args.verb}: stopped by {str(exc) or "SIGINT"}', file=sys.stderr)
+        return exit_code(exc)
 
 
 def console_main() -> None:

@@ -2,17 +2,16 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
 from pathlib import Path
-from types import FrameType
 
 from drive_bridge.cli.command import add_progress_option
+from drive_bridge.stopsignals import exit_code, stop_on_signals
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.description = (f'{parser.description}. For machines whose master is a PLC; Ctrl-C closes the bag. '
+    parser.description = (f'{parser.description}. For machines whose master is a PLC; Ctrl-C or SIGTERM closes '
+                          'the bag (exit 0; a second signal stops at once). '
                           'With --config, the bus settings default to the config\'s, and the config and '
                           'its EDS/DCF files are stored in the bag.')
     parser.add_argument('-o', '--output', type=Path, required=True, help='bag directory to create')
@@ -51,27 +50,23 @@ def run(args: argparse.Namespace) -> int:
                             split_seconds=args.split_seconds or None,
                             config_yaml=args.config.read_text(encoding='utf-8') if args.config else None,
                             files=config_files(config) if config else {})
-        stop = threading.Event()
-
-        def on_signal(_signum: int, _frame: FrameType | None) -> None:
-            stop.set()
-        in_main = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGTERM, on_signal) if in_main else None
 
         def report(stats: RecorderStats) -> None:
             print(f'\r{stats.frames} frames, {stats.dropped} dropped, {stats.bytes / 1e6:.1f} MB, '
                   f'split {stats.split}', end='', file=sys.stderr, flush=True)
         print(f'recording {interface}:{channel} to {recorder.path} (passive: sends nothing; Ctrl-C stops)',
               file=sys.stderr)
-        try:
-            stats = record_passive(bus, recorder, stop, duration=args.duration,
-                                   report=None if args.no_progress else report, name=f'{interface}:{channel}')
-        except KeyboardInterrupt:
-            stats = recorder.stop()
-        finally:
-            if in_main:
-                signal.signal(signal.SIGTERM, previous)
+        interrupted: KeyboardInterrupt | None = None
+        with stop_on_signals() as stop:  # the signal ends the loop; the loop closes the bag
+            try:
+                stats = record_passive(bus, recorder, stop.event, duration=args.duration,
+                                       report=None if args.no_progress else report, name=f'{interface}:{channel}')
+            except KeyboardInterrupt as exc:  # a second signal: stop at once
+                interrupted = exc
+                stats = recorder.stop()
     finally:
         bus.shutdown()
     print(('' if args.no_progress else '\n') + stats.summary())
+    if interrupted is not None:
+        return exit_code(interrupted)
     return 1 if stats.error or stats.dropped else 0

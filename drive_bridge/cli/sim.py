@@ -10,12 +10,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import signal
-import threading
 from pathlib import Path
-from types import FrameType
 
 from drive_bridge.cli.errors import CommandError
+from drive_bridge.stopsignals import stop_on_signals
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -45,22 +43,16 @@ def run(args: argparse.Namespace) -> int:
     except (KeyError, ValueError) as exc:  # a family without a simulator, options of no node
         bus.shutdown()
         raise CommandError(f'{args.config}: {exc}') from None
-    stop = threading.Event()
-
-    def on_signal(_signum: int, _frame: FrameType | None) -> None:
-        stop.set()
-
-    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
-    simulation.start()
-    try:
-        where = f'{bus_cfg.interface}:{bus_cfg.channel}'
-        for node in config.nodes:
-            joints = ', '.join(axis.joint for axis in node.axes) or 'no axes'
-            print(f'simulating {node.name} (node {node.node_id}, {node.family}; {joints}) on {where}', flush=True)
-        while not stop.wait(0.5):
-            pass
-    finally:
-        simulation.stop()
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+    with stop_on_signals() as stop:  # the signal ends the wait; the drives stop from ordinary code
+        simulation.start()
+        try:
+            where = f'{bus_cfg.interface}:{bus_cfg.channel}'
+            for node in config.nodes:
+                joints = ', '.join(axis.joint for axis in node.axes) or 'no axes'
+                print(f'simulating {node.name} (node {node.node_id}, {node.family}; {joints}) on {where}',
+                      flush=True)
+            while not stop.wait(0.5):
+                pass
+        finally:
+            simulation.stop()
     return 0

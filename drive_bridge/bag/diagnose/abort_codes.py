@@ -1,5 +1,8 @@
-"""SDO abort code texts: canopen's CiA 301 table, with a short reading of the usual causes."""
+"""SDO abort code texts: canopen's CiA 301 table (as ``standard_objects`` holds it, so that an
+abort does not import canopen), with a short reading of the usual causes."""
 from __future__ import annotations
+
+from drive_bridge.bag.diagnose.standard_objects import ABORT_TEXTS
 
 # what a person should check when the drive answers with this code (probable cause)
 _HINTS = {
@@ -20,11 +23,8 @@ _HINTS = {
 
 
 def abort_text(code: int) -> str:
-    """'Value range of parameter exceeded' for 0x06090030; names unknown codes (canopen's table,
-    imported when the first abort needs a text)."""
-    from canopen.sdo.exceptions import SdoAbortedError
-
-    return SdoAbortedError.CODES.get(code, f'unknown abort code 0x{code:08X}')
+    """'Value range of parameter exceeded' for 0x06090030; names unknown codes."""
+    return ABORT_TEXTS.get(code, f'unknown abort code 0x{code:08X}')
 
 
 def abort_cause(code: int) -> str:

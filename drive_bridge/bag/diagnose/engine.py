@@ -119,7 +119,7 @@ class Engine:
         for cob in range(0x601, 0x680):
             h[cob] = d.sdo.request
         for cob in range(0x701, 0x780):
-            h[cob] = self._heartbeat
+            h[cob] = d.liveness.frame
         d.pdo.register = self._register_pdo
         if inputs.config is not None:
             for node in inputs.config.nodes:
@@ -138,9 +138,6 @@ class Engine:
         self.d.pdo.last_sync = t
         self.d.ctx.syncs += 1
 
-    def _heartbeat(self, t: float, cob: int, data: Any) -> None:
-        self.d.liveness.frame(t, cob, data, False)
-
     # -- object values ---------------------------------------------------------------------
     def _sdo_done(self, txn: SdoTransaction) -> None:
         d = self.d
@@ -153,14 +150,15 @@ class Engine:
         if index == 0x1017 and txn.write and txn.subindex == 0:
             d.liveness.node(txn.node).producer_ms = value
             return
+        if not 0x6000 <= index < 0xA000:  # the values the analysers follow are CiA 402 axis objects'
+            return
         info = d.ctx.nodes.get(txn.node)
         bits = 8 * len(txn.data)
         if is_signed(info.od if info else None, index, txn.subindex) and value >> (bits - 1):
             value -= 1 << bits
-        if 0x6000 <= index < 0xA000:
-            if ((index - 0x6000) & 0x7FF) == 0x65:  # following error window
-                d.following.window(txn.node, (index - 0x6000) >> 11, value)
-            self.object_value(txn.t_response or txn.t_request, txn.node, index, txn.subindex, value)
+        if ((index - 0x6000) & 0x7FF) == 0x65:  # following error window
+            d.following.window(txn.node, (index - 0x6000) >> 11, value)
+        self.object_value(txn.t_response or txn.t_request, txn.node, index, txn.subindex, value)
 
     def object_value(self, t: float, node: int, index: int, subindex: int, value: int) -> None:
         """A value of a CiA 402 axis object read or written by SDO, to the analyser that follows it."""

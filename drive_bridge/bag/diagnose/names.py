@@ -1,18 +1,19 @@
 """Object names and data types: the node's EDS when given, else CiA 301/402 (the shipped
 generic CiA 402 EDS holds the standard objects), else the hex index. An object of axis slot n
 (0x6000 + 0x800 n) is named by slot 0's only when that is a CiA 402 object: 0x7000 is no
-"axis 3" of 0x6000 (a CiA 401 object), it is the device's own. canopen is imported when the
-first name is asked for (a log without SDO never pays for it)."""
+"axis 3" of 0x6000 (a CiA 401 object), it is the device's own. The standard objects come from
+``standard_objects`` (canopen's reading of the generic EDS, generated): canopen is imported
+only for an EDS the user gives, not to name the objects of a bare log.
+"""
 from __future__ import annotations
 
 from functools import lru_cache
-from pathlib import Path
 from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from canopen.objectdictionary import ObjectDictionary, ODVariable
+from drive_bridge.bag.diagnose.standard_objects import ARRAYS, RECORDS, VARIABLES
 
-GENERIC_402_EDS = Path(__file__).resolve().parents[2] / 'families' / 'data' / 'generic402.eds'
+if TYPE_CHECKING:
+    from canopen.objectdictionary import ObjectDictionary
 
 _SIGNED = {0x02, 0x03, 0x04, 0x10, 0x15}  # INTEGER8/16/32/24/64
 _STANDARD_EXTRA = {0x1001: 'Error register', 0x1002: 'Manufacturer status register',
@@ -22,28 +23,47 @@ _STANDARD_EXTRA = {0x1001: 'Error register', 0x1002: 'Manufacturer status regist
                    0x6411: 'Write analogue output 16-bit', 0x6502: 'Supported drive modes'}
 
 
-@lru_cache(maxsize=1)
-def standard_od() -> ObjectDictionary:
-    import canopen
-
-    return canopen.import_od(str(GENERIC_402_EDS), 1)
+Entry = tuple[str, bool | None]  # (name, signed; None: no such variable)
 
 
-def _variable(od: ObjectDictionary | None, index: int, subindex: int) -> tuple[str, ODVariable | None]:
+def _from_od(od: ObjectDictionary, index: int, subindex: int) -> Entry | None:
+    """The entry of a user's EDS (canopen's object dictionary), None when it lacks the object."""
     from canopen.objectdictionary import ODVariable
 
-    for table in (od, standard_od()):
-        if table is None or index not in table:
-            continue
-        obj = table[index]
-        if isinstance(obj, ODVariable):
-            return obj.name, obj
-        try:
-            sub = obj[subindex]
-        except KeyError:
-            return obj.name, None
-        return f'{obj.name}: {sub.name}' if sub.name != obj.name else obj.name, sub
-    return '', None
+    if index not in od:
+        return None
+    obj = od[index]
+    if isinstance(obj, ODVariable):
+        return obj.name, obj.data_type in _SIGNED
+    try:
+        sub = obj[subindex]
+    except KeyError:
+        return obj.name, None
+    return f'{obj.name}: {sub.name}' if sub.name != obj.name else obj.name, sub.data_type in _SIGNED
+
+
+def _standard(index: int, subindex: int) -> Entry | None:
+    """The same from the generic EDS' table (an array's undefined subindex as canopen names it)."""
+    variable = VARIABLES.get(index)
+    if variable is not None:
+        return variable
+    container = RECORDS.get(index) or ARRAYS.get(index)
+    if container is None:
+        return None
+    name, subs = container
+    sub = subs.get(subindex)
+    if sub is None and index in ARRAYS and 0 < subindex < 256 and 1 in subs:
+        sub = f'{subs[1][0]}_{subindex:x}', subs[1][1]
+    if sub is None:
+        return name, None
+    return f'{name}: {sub[0]}' if sub[0] != name else name, sub[1]
+
+
+def _variable(od: ObjectDictionary | None, index: int, subindex: int) -> Entry:
+    entry = _from_od(od, index, subindex) if od is not None else None
+    if entry is None:
+        entry = _standard(index, subindex)
+    return entry if entry is not None else ('', None)
 
 
 def _standard_base(index: int) -> int:
@@ -89,7 +109,7 @@ def is_signed(od: ObjectDictionary | None, index: int, subindex: int) -> bool:
 @lru_cache(maxsize=4096)
 def _signed_cached(od_id: int, index: int, subindex: int) -> bool:
     od = _ODS.get(od_id)
-    _name, var = _variable(od, index, subindex)
-    if var is None and 0x6040 <= _standard_base(index) < 0x6800:
-        _name, var = _variable(None, _standard_base(index), subindex)
-    return var is not None and var.data_type in _SIGNED
+    _name, signed = _variable(od, index, subindex)
+    if signed is None and 0x6040 <= _standard_base(index) < 0x6800:
+        _name, signed = _variable(None, _standard_base(index), subindex)
+    return bool(signed)

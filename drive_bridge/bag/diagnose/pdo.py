@@ -145,10 +145,13 @@ class Pdos:
 
     def sdo(self, txn: SdoTransaction) -> None:
         """Mapping and COB-IDs as the trace configures (or reads back) them."""
-        index, value = txn.index, txn.value
-        if 0x6040 <= index < 0x6800 or (index == 0x1000 and value is not None and value & 0xFFFF == 402):
+        index = txn.index
+        if 0x6040 <= index < 0x6800 or (index == 0x1000 and (txn.value or 0) & 0xFFFF == 402):
             self.infer.hint(txn.node)
-        if not 0x1400 <= index < 0x1C00 or value is None:
+        if not 0x1400 <= index < 0x1C00:  # the value only for the PDO parameters (most SDOs are others)
+            return
+        value = txn.value
+        if value is None:
             return
         kind = 'RPDO' if index < 0x1800 else 'TPDO'
         number = (index & 0x1FF) + 1

@@ -47,10 +47,14 @@ def node_rows(d: Diagnosis) -> list[dict[str, Any]]:
 def sdo_rows(d: Diagnosis) -> list[dict[str, Any]]:
     t0 = d.t0
     rows = []
+    labels: dict[tuple[int, int, int], str] = {}  # a long log repeats few objects many times
     for txn in d.sdo.transactions:
-        info = d.ctx.nodes.get(txn.node)
-        rows.append({'time': round(txn.t_request - t0, 6), 'node': txn.node,
-                     'object': object_label(info.od if info else None, txn.index, txn.subindex),
+        key = (txn.node, txn.index, txn.subindex)
+        label = labels.get(key)
+        if label is None:
+            info = d.ctx.nodes.get(txn.node)
+            label = labels[key] = object_label(info.od if info else None, txn.index, txn.subindex)
+        rows.append({'time': round(txn.t_request - t0, 6), 'node': txn.node, 'object': label,
                      'access': 'write' if txn.write else 'read', 'status': txn.status,
                      'value': format_value(txn) if txn.data else None,
                      'latency_ms': round(txn.latency * 1000, 3) if txn.latency is not None else None,

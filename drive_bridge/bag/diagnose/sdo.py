@@ -237,12 +237,13 @@ class SdoLog:
         txn.status = status
         if self._open.get(txn.node) is txn:
             del self._open[txn.node]
-        ctx = self.ctx
-        label = ctx_label(ctx, txn)
-        access = 'write' if txn.write else 'read'
         if status == 'ok':
             self.on_done(txn)
-        elif status == 'abort' and txn.abort is not None:
+            return
+        ctx = self.ctx
+        label = ctx_label(ctx, txn)  # for the finding only: most transactions are ok
+        access = 'write' if txn.write else 'read'
+        if status == 'abort' and txn.abort is not None:
             code = txn.abort
             who = ('the master aborted' if by_client else
                    'aborted, after the master had given up,' if late else 'aborted')
