@@ -14,6 +14,8 @@ measurement window, while trajectories stream on every axis:
 from __future__ import annotations
 
 import math
+import os
+import sys
 import threading
 import time
 from typing import Any
@@ -40,7 +42,8 @@ def flood_role(kind: str, joints: int, seconds: float) -> None:
     print('flooding', flush=True)
     {'commands': _commands, 'services': _services, 'trajectories': _trajectories, 'goal': _goal,
      'parameters': _parameters}[kind](node, joints, end)
-    rclpy.try_shutdown()
+    sys.stdout.flush()
+    os._exit(0)  # rclpy's teardown under a spinning executor aborts the process: not what is measured
 
 
 def _commands(node: Any, joints: int, end: float) -> None:
