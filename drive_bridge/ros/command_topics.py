@@ -36,6 +36,7 @@ from drive_bridge.ros.message_limits import (
     check_trajectory_bytes,
 )
 from drive_bridge.ros.parameters import BridgeParameters
+from drive_bridge.ros.state_topics import safe_publish
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
@@ -82,7 +83,8 @@ class CommandTopics:
 
     def refuse(self, topic: str, reason: str) -> None:
         text = f'{topic}: refused: {reason}'
-        self.errors.publish(String(data=text))
+        if not safe_publish(self.node, self.errors, String(data=text)):
+            return
         now = time.monotonic()
         if now - self._last_log.get(topic, 0.0) >= LOG_INTERVAL:
             self._last_log[topic] = now

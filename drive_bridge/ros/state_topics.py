@@ -29,6 +29,19 @@ from drive_bridge.ros.frames import stamp_from_seconds, to_frame_msg
 from drive_bridge.ros.parameters import BridgeParameters
 
 
+def safe_publish(node: Node, publisher: Any, msg: Any) -> bool:
+    """Publish from one of the bus client's threads; False (nothing raised) once the node's
+    context is shut down (a signal ends rclpy before the node is closed), so the last reports
+    of a stopping bus process are dropped quietly instead of failing in every listener."""
+    try:
+        publisher.publish(msg)
+    except Exception:
+        if node.context.ok():
+            raise
+        return False
+    return True
+
+
 def state_qos(params: BridgeParameters) -> QoSProfile:
     reliability = (ReliabilityPolicy.BEST_EFFORT if params.qos_reliability == 'best_effort'
                    else ReliabilityPolicy.RELIABLE)
@@ -67,7 +80,8 @@ class StateTopics:
         self.diagnostic_sources: list[Callable[[], DiagnosticStatus]] = []
 
     def _publish(self, publisher: Any, msg: Any) -> None:
-        publisher.publish(msg)
+        if not safe_publish(self.node, publisher, msg):
+            return
         tee = self.tee
         if tee is not None:
             tee(publisher.topic_name, msg)
@@ -198,7 +212,7 @@ class StateTopics:
 
     def on_frame(self, msg: can.Message) -> None:
         if self._frame_subscribers:
-            self.frames.publish(to_frame_msg(msg, self._channel))
+            safe_publish(self.node, self.frames, to_frame_msg(msg, self._channel))
 
     # -- diagnostics (executor) ------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
