@@ -21,12 +21,12 @@ from rclpy.parameter import Parameter
 from akdtools import Sniffer
 from bustools import config_from, unique_channel
 from drive_bridge.master.bus import open_bus
-from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.node import NodeSnapshot
 from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 from drive_bridge.sim import SimulatedBus
-from rostools import RosHarness, wait_for
+from rostools import RosHarness
+from timingtools import fresh_snapshot  # noqa: F401 (the tests import it from here too), wait_for
 
 
 def local_data(data: dict[str, Any], channel: str | None = None) -> dict[str, Any]:
@@ -113,27 +113,6 @@ def sniffing(node: BusNode) -> Iterator[Sniffer]:
         sniffer.close()
 
 
-def _progress(snapshot: BusSnapshot) -> tuple[int, int, int]:
-    sync = snapshot.sync
-    return (sync.cycles if sync is not None else 0, snapshot.traffic.rx_frames, snapshot.traffic.tx_frames)
-
-
-def fresh_snapshot(node: Any, timeout: float = 5.0) -> BusSnapshot:
-    """The bus as the bus process saw it after this call (``node``: a bus node, or its client).
-    ``master.snapshot()`` answers with the last snapshot it has and asks for the next one; an
-    answer may be on its way already, so the second snapshot that shows progress was taken after
-    the call."""
-    client = getattr(node, 'master', node)
-    seen = [_progress(client.snapshot())]
-
-    def newer() -> BusSnapshot | None:
-        snapshot = client.snapshot()
-        if _progress(snapshot) > seen[-1]:
-            seen.append(_progress(snapshot))
-            if len(seen) == 3:
-                return snapshot
-        return None
-    return wait_for(newer, timeout, 'a new snapshot from the bus process')
 
 
 def node_snapshot(node: BusNode, name: str, fresh: bool = False) -> NodeSnapshot:
