@@ -16,15 +16,23 @@ from drive_bridge.ros.node import BusNode
 
 def lower_priority(increment: int) -> None:
     """Once the bus process runs: this (node) process yields the CPU to it (nice + increment), so
-    the SYNC cycle runs first when a client floods the node. The bus process keeps its own
-    priority (it was started before). Applied once per process."""
+    the SYNC cycle runs first when a client floods the node. On Linux the nice value is a
+    thread's: every thread of this process is lowered (DDS's, rclpy's, the bus client's readers),
+    and threads started later inherit it. The bus process keeps its own priority (it was
+    started before). Applied once per process."""
     global _reniced
-    if increment > 0 and not _reniced:
-        _reniced = True
+    if increment <= 0 or _reniced:
+        return
+    _reniced = True
+    failed = []
+    for task in os.listdir('/proc/self/task') if os.path.isdir('/proc/self/task') else [str(os.getpid())]:
         try:
-            os.nice(increment)
-        except OSError as exc:
-            rclpy.logging.get_logger('drive_bridge').warning(f'node_nice {increment}: {exc}')
+            tid = int(task)
+            os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + increment))
+        except (OSError, ValueError) as exc:  # a thread that ended meanwhile, or not allowed
+            failed.append(f'{task}: {exc}')
+    if failed:
+        rclpy.logging.get_logger('drive_bridge').warning(f'node_nice {increment}: {"; ".join(failed[:3])}')
 
 
 _reniced = False
