@@ -422,7 +422,8 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
         base = BASELINE['dir']
         bridge_me = [str(base / '.venv' / 'bin' / 'python'), '-m', 'bench.ros_cycle']
         # not this venv's libraries: the other venv's interpreter finds its own (ROS wheels' bootstrapper)
-        bridge_env = {k: v for k, v in env.items() if k not in ('LD_LIBRARY_PATH', 'VIRTUAL_ENV')}
+        bridge_env = {k: v for k, v in env.items()
+                      if k not in ('LD_LIBRARY_PATH', 'VIRTUAL_ENV', '_ROS_WHEELS_BOOTSTRAP_COMPLETE')}
         bridge_env, bridge_variant = {**bridge_env, 'PYTHONPATH': str(base)}, 'bridge'
     log = work / f'{channel}.log'
     # rt: the simulated drives at the bridge's cycle priority too, else its SCHED_FIFO cycle starves them
