@@ -14,6 +14,7 @@ It never imports rclpy.
 from __future__ import annotations
 
 import argparse
+import gc
 import logging
 import os
 import signal
@@ -84,6 +85,10 @@ class BusProcess:
         master.add_cycle_listener(executor.check)
         master.add_emcy_listener(executor.on_emcy, safety=True)
         server.start(executor)
+        # the configuration, the object dictionaries and the simulated drives never become garbage:
+        # keep full collections from walking them, which would stall the cycle (the GIL is held)
+        gc.collect()
+        gc.freeze()
         self.request_lane.send(Ready(os.getpid(), tuple(master.axes), tuple(messages)))
 
     # -- ends ---------------------------------------------------------------------------------------
