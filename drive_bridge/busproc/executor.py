@@ -130,7 +130,7 @@ class ExecutorProxy:
         with self._lock:
             handle = self._handles.get(state.id)
             if handle is None:  # else a newer report came first: keep it
-                handle = self._handles[state.id] = HandleProxy(state)
+                handle = self._handles[state.id] = HandleProxy.of(state)
             self._forget_finished()
             return handle
 
@@ -138,7 +138,7 @@ class ExecutorProxy:
         with self._lock:
             handle = self._handles.get(state.id)
             if handle is None:
-                self._handles[state.id] = HandleProxy(state)
+                self._handles[state.id] = HandleProxy.of(state)
             else:
                 handle.update(state)
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -24,6 +23,7 @@ from drive_bridge.families.parameters import ParameterAccess, ParameterValue
 from drive_bridge.joint import AxisSnapshot, DriveState, JointError
 from drive_bridge.master.sdo import od_data_type
 from drive_bridge.model import AxisConfig, NodeConfig
+from drive_bridge.streaming.executor import TrajectoryHandle
 
 if TYPE_CHECKING:
     from drive_bridge.busproc.client import BusClient
@@ -175,39 +175,25 @@ class AxisProxy:
         self._intent('wait_target_reached', timeout)
 
 
-class HandleProxy:
-    """A trajectory's handle in the bus process, kept up to date by its HandleState reports."""
+FINAL_STATES = frozenset({'succeeded', 'superseded', 'aborted', 'cancelled'})
 
-    def __init__(self, state: HandleState) -> None:
-        self.id = state.id
-        self.joints = state.joints
-        self.start = state.start
-        self.end = state.end
-        self.state = state.state
-        self.reason = state.reason
-        self.notes = state.notes
-        self.warnings = state.warnings
-        self._done = threading.Event()
-        self.update(state)
+
+class HandleProxy(TrajectoryHandle):
+    """A trajectory's handle in the bus process (the executor's own handle type), kept up to date
+    by its HandleState reports; ``finish`` ends it here when the bus process is gone."""
+
+    @classmethod
+    def of(cls, state: HandleState) -> HandleProxy:
+        handle = cls(state.id, state.joints, state.start, state.end, notes=state.notes, warnings=state.warnings)
+        handle.update(state)
+        return handle
 
     def update(self, state: HandleState) -> None:
         self.start, self.end = state.start, state.end
-        self.state, self.reason = state.state, state.reason
-        if state.state in ('succeeded', 'superseded', 'aborted', 'cancelled'):
-            self._done.set()
-
-    def finish(self, state: str, reason: str = '') -> None:
-        """The bus process is gone: the trajectory ended with it."""
-        if not self._done.is_set():
-            self.state, self.reason = state, reason
-            self._done.set()
-
-    @property
-    def finished(self) -> bool:
-        return self._done.is_set()
-
-    def wait(self, timeout: float | None = None) -> bool:
-        return self._done.wait(timeout)
+        if state.state in FINAL_STATES:
+            self.finish(state.state, state.reason)
+        elif not self.finished:
+            self.state, self.reason = state.state, state.reason
 
 
 class SdoTypes:
