@@ -37,6 +37,7 @@ import json
 import math
 import os
 import random
+import shutil
 import statistics
 import subprocess
 import sys
@@ -49,6 +50,8 @@ from typing import Any
 
 import yaml
 
+from bench.floods import FLOODS, flood_role  # noqa: E402
+
 REPO = Path(__file__).resolve().parent.parent
 TOOL = Path(sys.executable).parent / 'drive-bridge'
 AMPLITUDE = 0.3  # rad
@@ -60,7 +63,9 @@ TRAJECTORY_MARGIN = 15.0  # s of trajectory beyond warm-up and window: start-up,
 # maps (target position + velocity), RPDO 1 of the compact maps (controlword + target position)
 RPDO_SETPOINT = {'default': 0x300, 'compact': 0x200}
 MAPS = tuple(RPDO_SETPOINT)
-VARIANTS = ('bridge', 'rt', 'naive', 'core')
+VARIANTS = ('bridge', 'rt', 'naive', 'core', 'single')
+# 'single': the bridge of another checkout (--baseline, e.g. before the bus process: one process)
+BASELINE: dict[str, Path] = {}
 REALTIME_PRIORITY = 50  # the rt variant: the bridge with master.realtime_priority (SCHED_FIFO)
 
 
@@ -126,32 +131,47 @@ def _pct(values: list[float], q: float) -> float:
 # --- the bridge process -------------------------------------------------------------------------
 
 class Window:
-    """Frames seen by the bus tap while the measurement window is open (time, id, sent)."""
+    """Frames seen by the bus tap while the measurement window is open (time, id, sent), and the
+    CPU of the processes that run the bridge (this one, and its bus process where it has one)
+    over the window. With a bus process the frames are captured there (``capture``)."""
 
     def __init__(self) -> None:
         self.open = False
         self.frames: list[tuple[float, int, bool]] = []
         self.cpu = (0.0, 0.0)
+        self.capture: Any = None  # path -> None: start ('' stops) the bus process's capture
+        self.processes: list[int] = [os.getpid()]
 
     def __call__(self, msg: Any) -> None:
         if self.open:
             self.frames.append((msg.timestamp, msg.arbitration_id, not msg.is_rx))
 
-    def run(self, ready: threading.Event) -> None:
+    def _cpu(self) -> float:
         import psutil
-        me = psutil.Process()
+        total = 0.0
+        for pid in self.processes:
+            t = psutil.Process(pid).cpu_times()
+            total += t.user + t.system
+        return total
+
+    def run(self, ready: threading.Event) -> None:
         ready.wait()
         print('ready', flush=True)
+        capture = tempfile.mktemp(suffix='.json')
         for line in sys.stdin:
             if line.strip() == 'start':
-                t = me.cpu_times()
-                self.cpu = (t.user + t.system, time.perf_counter())
+                if self.capture is not None:
+                    self.capture(capture)
+                self.cpu = (self._cpu(), time.perf_counter())
                 self.open = True
             elif line.strip() == 'stop':
                 self.open = False
-                t = me.cpu_times()
                 cpu_s, since = self.cpu
-                self.cpu = ((t.user + t.system - cpu_s) / (time.perf_counter() - since), 0.0)
+                self.cpu = ((self._cpu() - cpu_s) / (time.perf_counter() - since), 0.0)
+                if self.capture is not None:
+                    self.capture('')
+                    self.frames = [tuple(f) for f in json.loads(Path(capture).read_text())]  # type: ignore[misc]
+                    os.unlink(capture)
                 return
 
 
@@ -168,7 +188,10 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
         from drive_bridge.cia402.statemachine import State
         from drive_bridge.ros.node import BusNode
         node: Any = BusNode(config_path)
-        node.master.add_frame_listener(window)
+        from drive_bridge.ros.main import lower_priority
+        lower_priority(int(os.environ.get('BENCH_NODE_NICE', node.params.node_nice)))  # as ros.main.run does
+        window.capture = lambda path: node.master.capture(path)  # frames seen by the bus process's tap
+        window.processes.append(node.master.pid)
 
         def wait_enabled() -> None:
             node.master.wait_until_operational(30)
@@ -197,8 +220,8 @@ def bridge_role(config_path: str, variant: str, out: str, seconds: float) -> Non
     streaming = None
     if variant in ('bridge', 'rt'):
         streaming = [h.state for h in node.trajectories.active()]
-        if node.master.sync is not None:
-            s = node.master.sync.stats()
+        s = node.master.snapshot().sync
+        if s is not None:
             sync_stats = {'skipped': s.skipped, 'cycles': s.cycles}
     Path(out).write_text(json.dumps({'frames': window.frames, 'cpu': window.cpu[0], 'own': sync_stats,
                                      'streaming': streaming}))
@@ -346,9 +369,9 @@ def subscriber_role(joints: int, out: str, stream: bool, seconds: float) -> None
     sys.stdin.readline()  # 'go': the bridge's axes are all enabled (a trajectory before that is refused)
     if stream:  # one trajectory on every axis from where they are, outlasting the window
         names = sorted(latest, key=lambda n: int(n[1:]))
-        msg = JointTrajectory(joint_names=names)
-        start = time.time() + 0.3
-        msg.header.stamp.sec, msg.header.stamp.nanosec = int(start), int((start % 1) * 1e9)
+        msg = JointTrajectory(joint_names=names)  # stamp zero: it starts when the bridge takes it
+        # (a stamp the message's delivery overtakes would be refused: its start in the past, the
+        # lead-in to the first future point faster than the joint's limit)
         for t, positions, velocities in trajectory_points([latest[j] for j in names], seconds + WARMUP):
             msg.points.append(JointTrajectoryPoint(
                 positions=positions, velocities=velocities,
@@ -372,10 +395,10 @@ def probe_role(period: float, seconds: float, out: str) -> None:
 
 # --- the orchestrator ---------------------------------------------------------------------------
 
-def _popen(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[str]:
+def _popen(args: list[str], env: dict[str, str], log: Path, cwd: Path = REPO) -> subprocess.Popen[str]:
     with log.open('a') as stderr:  # the children's logs: read when a case fails
         return subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, text=True,
-                                env=env, cwd=REPO)
+                                env=env, cwd=cwd)
 
 
 def _expect(process: subprocess.Popen[str], word: str, what: str, timeout: float = 60.0) -> None:
@@ -389,23 +412,34 @@ def _expect(process: subprocess.Popen[str], word: str, what: str, timeout: float
 
 
 def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Path, env: dict[str, str],
-             maps: str = 'default') -> dict:
+             maps: str = 'default', flood: str | None = None) -> dict:
     channel = f'b{uuid.uuid4().hex[:6]}'
     config = work / f'{channel}.yaml'
     config.write_text(yaml.safe_dump(bus_data(axes, period_ms, channel, maps, realtime=variant == 'rt')))
     me = [sys.executable, '-m', 'bench.ros_cycle']
+    bridge_me, bridge_env, bridge_variant = me, env, variant
+    if variant == 'single':  # the other checkout's bridge, with its own venv and code
+        base = BASELINE['dir']
+        bridge_me = [str(base / '.venv' / 'bin' / 'python'), '-m', 'bench.ros_cycle']
+        # not this venv's libraries: the other venv's interpreter finds its own (ROS wheels' bootstrapper)
+        bridge_env = {k: v for k, v in env.items()
+                      if k not in ('LD_LIBRARY_PATH', 'VIRTUAL_ENV', '_ROS_WHEELS_BOOTSTRAP_COMPLETE')}
+        bridge_env, bridge_variant = {**bridge_env, 'PYTHONPATH': str(base)}, 'bridge'
     log = work / f'{channel}.log'
-    sim = _popen([str(TOOL), 'sim', str(config)], env, log)
+    # rt: the simulated drives at the bridge's cycle priority too, else its SCHED_FIFO cycle starves them
+    realtime = ['chrt', '-f', str(REALTIME_PRIORITY)] if variant == 'rt' and shutil.which('chrt') else []
+    sim = _popen([*realtime, str(TOOL), 'sim', str(config)], env, log)
     processes = [sim]
     try:
         for _ in range(axes):
             _expect(sim, 'simulating', 'drive-bridge sim')
-        bridge = _popen([*me, '--role', 'bridge', '--variant', variant, '--config', str(config),
-                         '--seconds', str(seconds), '--out', str(work / f'{channel}.bridge.json')], env, log)
+        bridge = _popen([*bridge_me, '--role', 'bridge', '--variant', bridge_variant, '--config', str(config),
+                         '--seconds', str(seconds), '--out', str(work / f'{channel}.bridge.json')], bridge_env, log,
+                        cwd=BASELINE['dir'] if variant == 'single' else REPO)
         processes.append(bridge)
         sub = None
         if variant != 'core':  # the core variant publishes nothing: no subscriber
-            stream = ['--stream'] if variant in ('bridge', 'rt') else []
+            stream = ['--stream'] if variant in ('bridge', 'rt', 'single') else []
             sub = _popen([*me, '--role', 'subscriber', '--joints', str(axes), '--seconds', str(seconds),
                           '--out', str(work / f'{channel}.sub.json'), *stream], env, log)
             processes.append(sub)
@@ -415,6 +449,11 @@ def run_case(axes: int, period_ms: float, variant: str, seconds: float, work: Pa
             sub.stdin.write('go\n')
             sub.stdin.flush()
             _expect(sub, 'streaming', 'subscriber', 60)
+        if flood is not None:  # beside every variant alike: its own CPU counts on both sides
+            flooder = _popen([*me, '--role', 'flood', '--kind', flood, '--joints', str(axes),
+                              '--seconds', str(seconds + WARMUP + 5)], env, log)
+            processes.append(flooder)
+            _expect(flooder, 'flooding', f'{flood} flood', 60)
         time.sleep(WARMUP + 0.3)
         assert bridge.stdin is not None
         bridge.stdin.write('start\n')
@@ -482,13 +521,14 @@ def analyse(data: dict, states: list[list[float]], axes: int, period: float,
             leads.append(sync - last)
     latency = [recv - stamp for recv, stamp in states if stamp > 0]
     probe = data.get('probe')
+    emcy = sum(1 for _t, can_id, sent in frames if not sent and 0x81 <= can_id <= 0xFF)
     return {'sync_p50': statistics.median(intervals) if intervals else float('nan'),
             'sync_p99': _pct(intervals, 0.99), 'sync_max': max(intervals, default=float('nan')),
             'cycles': len(intervals), 'skipped': skipped,
             'on_time': on_time / len(intervals) if intervals else float('nan'),
             'lead_p50': statistics.median(leads) if leads else float('nan'),
             'js_p50': statistics.median(latency) if latency else float('nan'),
-            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'],
+            'js_p99': _pct(latency, 0.99), 'js_rate': len(states), 'cpu': data['cpu'], 'emcy': emcy,
             'idle_skip': probe['skipped'] / (probe['skipped'] + probe['cycles']) if probe else float('nan'),
             'idle_p99': probe.get('interval_p99', float('nan')) if probe else float('nan')}
 
@@ -528,9 +568,28 @@ def ratio_row(bridge: dict, naive: dict, period: float, label: str = 'bridge') -
             f'{"":6} {_ratio(naive["js_p99"], bridge["js_p99"]):>6} {_ratio(naive["cpu"], bridge["cpu"]):>5}')
 
 
+def goal_line(results: dict[str, dict]) -> str:
+    """The bus process's goals as ratios in this run: bridge skipped / core skipped (<= 1.5), rt
+    skipped share - the bare loop's (<= 0.5 points), CPU and js p99 against the single process."""
+    def share(r: dict) -> float:
+        return r['skipped'] / max(1, r['skipped'] + r['cycles'])
+    parts = []
+    bridge, core, rt, single = (results.get(v) for v in ('bridge', 'core', 'rt', 'single'))
+    if bridge and core:
+        parts.append(f'skipped bridge/core {_ratio(bridge["skipped"], core["skipped"])}'.replace('×', '') + ' (<= 1.5)')
+    if rt:
+        parts.append(f'rt - floor {100 * (share(rt) - rt["idle_skip"]):+.1f} points (<= 0.5)')
+    if bridge and single:
+        parts.append(f'CPU bridge/single {bridge["cpu"] / single["cpu"]:.2f} (<= 1.3)' if single['cpu'] else '')
+        parts.append(f'js p99 bridge {bridge["js_p99"] * 1e3:.2f} ms, single {single["js_p99"] * 1e3:.2f} ms')
+        parts.append(f'skipped bridge/single {_ratio(bridge["skipped"], single["skipped"])}'.replace('×', ''))
+    return '; '.join(p for p in parts if p)
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(prog='python -m bench ros_cycle', description=__doc__.split('\n\n')[0])
-    parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe'], help=argparse.SUPPRESS)
+    parser.add_argument('--role', choices=['bridge', 'subscriber', 'probe', 'flood'], help=argparse.SUPPRESS)
+    parser.add_argument('--kind', help=argparse.SUPPRESS)
     parser.add_argument('--period', type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument('--variant', default='bridge', help=argparse.SUPPRESS)
     parser.add_argument('--config', help=argparse.SUPPRESS)
@@ -541,19 +600,36 @@ def main(argv: list[str]) -> None:
     parser.add_argument('--axes', type=int, nargs='+', default=[1, 2, 4, 6, 8])
     parser.add_argument('--periods', type=float, nargs='+', default=[1, 2, 4, 10], help='SYNC periods in ms')
     parser.add_argument('--seconds', type=float, default=10.0, help='measurement window per case (default 10)')
-    parser.add_argument('--variants', nargs='+', default=list(VARIANTS), choices=VARIANTS)
+    parser.add_argument('--variants', nargs='+', default=None, choices=VARIANTS,
+                        help='default: bridge rt naive core, and single with --baseline')
+    parser.add_argument('--baseline', type=Path,
+                        help="another checkout (bootstrapped) whose bridge runs as the variant 'single', e.g. the "
+                             'last commit before the bus process, for the same figures of both in one run')
     parser.add_argument('--maps', choices=MAPS, default='default',
                         help="PDO maps: the family's default (2 RPDOs + 2 TPDOs per axis) or compact (1 + 1 "
                              'per cycle, the statusword on change)')
+    parser.add_argument('--floods', nargs='*', choices=FLOODS, default=None,
+                        help='instead of the table: each flood (default all) beside the bridge and beside core, '
+                             'with the same case without flood, at the first of --axes/--periods (default 4 at 4 ms)')
     args = parser.parse_args(argv)
+    if args.role == 'flood':
+        return flood_role(args.kind, args.joints, args.seconds)
     if args.role == 'bridge':
         return bridge_role(args.config, args.variant, args.out, args.seconds)
     if args.role == 'subscriber':
         return subscriber_role(args.joints, args.out, args.stream, args.seconds)
     if args.role == 'probe':
         return probe_role(args.period, args.seconds, args.out)
+    if args.variants is None:
+        args.variants = [v for v in VARIANTS if v != 'single' or args.baseline]
+    if args.baseline is not None:
+        BASELINE['dir'] = args.baseline.resolve()
+    elif 'single' in args.variants:
+        parser.error('the variant single needs --baseline DIR')
     if args.quick:
         args.axes, args.periods, args.seconds = [1, 4], [4], 3.0
+    if args.floods is not None and '--axes' not in argv:
+        args.axes, args.periods = [4], [4]
     from drive_bridge.config import load_bus_config_text
     from drive_bridge.config.busbudget import budget_of
     env = {**os.environ, 'PYTHONPATH': str(REPO), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
@@ -563,12 +639,14 @@ def main(argv: list[str]) -> None:
         env['DRIVE_BRIDGE_CAN_DIR'] = str(work / 'can')
         print(f'{args.seconds:g} s per case; SYNC/lead/js in ms; skipped = grid points without SYNC of all; '
               'on time = SYNCs whose every set-point RPDO went out after the previous SYNC; '
-              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge process; "
+              "js = TPDO reception -> /joint_states at the subscriber; CPU of the bridge (node and bus process); "
               "core = Master + TrajectoryExecutor alone, no rclpy (no subscriber: js '-'); "
               "idle p99/skip = a bare sleep loop on the grid in another process meanwhile: its interval p99 "
               "and skipped share (the machine's floor); rt = the bridge with master.realtime_priority "
               f"{REALTIME_PRIORITY} (SCHED_FIFO); ratio = naive/bridge, ratioR = naive/rt; "
               "'!' = over 70 % of 1 Mbit/s")
+        if args.floods is not None:
+            return flood_table(args, work, env)
         print(HEADER)
         for period_ms in args.periods:
             for axes in args.axes:
@@ -583,6 +661,35 @@ def main(argv: list[str]) -> None:
                 for ours in ('bridge', 'rt'):
                     if ours in results and 'naive' in results:
                         print(ratio_row(results[ours], results['naive'], period_ms / 1000, ours), flush=True)
+                goals = goal_line(results)
+                if goals:
+                    print(f'{"":14} {"goals":6} {goals}', flush=True)
+
+
+def flood_table(args: argparse.Namespace, work: Path, env: dict[str, str]) -> None:
+    """Each flood beside the bridge and beside core, with the case without flood, in one run."""
+    axes, period_ms = args.axes[0], args.periods[0]
+    print(f'floods at {axes} axes, {period_ms:g} ms, {args.maps} maps, trajectories streaming; '
+          'skipped = grid points without SYNC; EMCY = EMCY frames from the drives (faults, heartbeat '
+          'errors) in the window; js rate = /joint_states at the subscriber, share of the SYNC rate; '
+          'ratio = bridge skipped / core skipped (goal <= 2, no EMCY, js >= 90 %)')
+    print(f'{"flood":12} {"variant":7} {"skipped":>13} {"EMCY":>5} {"js rate":>8} {"CPU":>5} {"ratio":>6}')
+    for flood in [None, *(args.floods or FLOODS)]:
+        results = {}
+        for variant in ('bridge', 'core'):
+            try:
+                r = results[variant] = run_case(axes, period_ms, variant, args.seconds, work, env, args.maps, flood)
+            except Exception as exc:
+                print(f'{flood or "none":12} {variant:7} could not run: {exc}', flush=True)
+                continue
+            expected = args.seconds / (period_ms / 1000)
+            rate = f'{r["js_rate"] / expected:8.0%}' if variant == 'bridge' else f'{"-":>8}'
+            ratio = ''
+            if variant == 'core' and 'bridge' in results:
+                core, bridge = r['skipped'], results['bridge']['skipped']
+                ratio = f'{bridge / core:6.1f}' if core else ('1.0' if not bridge else '∞')
+            print(f'{flood or "none":12} {variant:7} {r["skipped"]:6d}/{r["cycles"] + r["skipped"]:<6d} '
+                  f'{r["emcy"]:5d} {rate} {r["cpu"]:5.0%} {ratio:>6}', flush=True)
 
 
 if __name__ == '__main__':

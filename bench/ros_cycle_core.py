@@ -11,7 +11,6 @@ import json
 import os
 import sys
 import threading
-import time
 from pathlib import Path
 
 from bench.ros_cycle import WARMUP, Window, trajectory_points
@@ -49,7 +48,7 @@ def core_role(config_path: str, seconds: float, out: str) -> None:
     starts = [master.axes[j].feedback()[1] for j in names]
     points = tuple(TrajectoryPoint(t, tuple(p), tuple(v))
                    for t, p, v in trajectory_points(starts, seconds + WARMUP))
-    executor.submit(Trajectory(tuple(names), points, start=time.time() + 0.3), 'core')
+    executor.submit(Trajectory(tuple(names), points), 'core')  # starts now, as the bridge's (stamp zero)
     if 'rclpy' in sys.modules:  # the variant's point: the core never imports it
         print('core: rclpy was imported in the core variant', file=sys.stderr, flush=True)
         os._exit(3)

@@ -147,6 +147,16 @@ class PositionLoopConfig:
 
 
 @dataclass(frozen=True)
+class NodeLossConfig:
+    """What the bus process does with an enabled axis when the node process is gone: quick
+    stop, then at rest ``disable`` (after ``brake_delay`` s, so the holding brake has engaged)
+    or ``hold`` (quick stop active: holding torque, for a vertical axis)."""
+
+    action: Literal['disable', 'hold'] = 'disable'
+    brake_delay: float = 0.2  # s
+
+
+@dataclass(frozen=True)
 class HomingConfig:
     """Homing parameters; None leaves the drive's own value (0x6098, 0x6099, 0x609A, 0x607C)."""
 
@@ -184,6 +194,7 @@ class AxisConfig:
     limits: AxisLimits = field(default_factory=AxisLimits)
     homing: HomingConfig = field(default_factory=HomingConfig)
     position_loop: PositionLoopConfig = field(default_factory=PositionLoopConfig)
+    node_loss: NodeLossConfig = field(default_factory=NodeLossConfig)
     # the drive family's own per-axis settings (the axis key `drive`), as its
     # parse_axis_options validated them
     drive: Mapping[str, Any] = field(default_factory=dict)

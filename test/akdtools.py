@@ -37,10 +37,11 @@ class BusFrame:
 
 
 class Sniffer:
-    """Every frame on a virtual channel, in bus order."""
+    """Every frame on a channel (``virtual`` by default; ``local`` for a bus process's bus), in
+    bus order. It also sends (:meth:`send`): a test injects frames through the bus it listens on."""
 
-    def __init__(self, channel: str) -> None:
-        self._bus = can.Bus(interface='virtual', channel=channel, receive_own_messages=False)
+    def __init__(self, channel: str, interface: str = 'virtual') -> None:
+        self._bus = can.Bus(interface=interface, channel=channel, receive_own_messages=False)
         self._frames: list[BusFrame] = []
         self._cond = threading.Condition()
         self._notifier = can.Notifier(self._bus, [self._on_message], timeout=0.05)
@@ -76,6 +77,9 @@ class Sniffer:
                     raise AssertionError(f'timed out waiting for {count} frame(s) on 0x{cob_id:03X} '
                                          f'(got {[f.data.hex(" ") for f in found]})')
                 self._cond.wait(left)
+
+    def send(self, msg: can.Message) -> None:
+        self._bus.send(msg)
 
     def close(self) -> None:
         self._notifier.stop()

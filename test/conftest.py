@@ -10,6 +10,8 @@ from pathlib import Path
 # Set before anything imports rclpy: the RMW reads these at rclpy.init().
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+# the bus processes the tests start honour the test hook InjectSetpoint (drive_bridge.busproc.intents)
+os.environ['DRIVE_BRIDGE_TEST_HOOKS'] = '1'
 
 from typing import TYPE_CHECKING  # noqa: E402
 

@@ -84,19 +84,20 @@ def moving(master: Master, joint: str, seconds: float = 0.3) -> bool:
     return abs(master.axes[joint].snapshot().position - before) > 1e-4
 
 
-def demo_bridge(ros, **parameters: object):
-    """The demo bus node on a private channel, in-process, every axis enabled (auto_enable)."""
-    import yaml
+@contextmanager
+def demo_bridge(ros, data: dict | None = None, **parameters: object):
+    """The demo bus node (or ``data``'s) on a private local channel, its simulated drives in this
+    process (``node.simulation``, bridgetools), every axis enabled (auto_enable); both stopped
+    afterwards."""
     from rclpy.parameter import Parameter
 
+    from bridgetools import bridge_with_sim
     from bustools import demo_data
     from drive_bridge.cia402.statemachine import State
-    from drive_bridge.ros.node import BusNode
 
-    overrides = {'config_yaml': yaml.safe_dump(demo_data(), sort_keys=False), 'auto_enable': True, **parameters}
-    node = BusNode(context=ros.context, parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
-    ros.add(node)
-    node.master.wait_until_operational(10.0)
-    eventually(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10,
-               'every axis enabled')
-    return node
+    overrides = {'auto_enable': True, **parameters}
+    with bridge_with_sim(ros, data or demo_data(), [Parameter(k, value=v) for k, v in overrides.items()]) as node:
+        node.master.wait_until_operational(10.0)
+        eventually(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10,
+                   'every axis enabled')
+        yield node

@@ -1,7 +1,8 @@
-"""A bus node under test with its watchers: the node (BusNode on a private rclpy context), a frame
-recorder on its bus, and recorders of /joint_states, ~/axis_states, ~/emcy, ~/command_errors;
-publishers for ~/commands and ~/joint_trajectory; service and state helpers. Family ROS tests
-build one from their config text."""
+"""A bus node under test with its watchers: the node (BusNode on a private rclpy context, its
+simulated drives in the test's process: bridgetools), a frame recorder on its local bus (from
+before the bridge starts), and recorders of /joint_states, ~/axis_states, ~/emcy,
+~/command_errors; publishers for ~/commands and ~/joint_trajectory; service and state helpers.
+Family ROS tests build one from their config data."""
 from __future__ import annotations
 
 import time
@@ -16,7 +17,7 @@ from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from akdtools import Sniffer
-from drive_bridge.ros.node import BusNode
+from bridgetools import local_data, start_bridge, stop_bridge
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
@@ -32,14 +33,17 @@ def point(t: float, positions: list[float], velocities: list[float] | None = Non
 class NodeBench:
     """The bus node, a frame recorder and topic recorders; waits until every joint publishes."""
 
-    def __init__(self, ros: RosHarness, channel: str, config_yaml: str, joints: tuple[str, ...],
+    def __init__(self, ros: RosHarness, data: dict[str, Any], joints: tuple[str, ...],
                  parameters: list[Parameter] | None = None, call_timeout: float = 15.0) -> None:
         self.ros = ros
         self.call_timeout = call_timeout
-        self.sniffer = Sniffer(channel)
-        self.node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=config_yaml), *(parameters or [])])
-        ros.add(self.node)
+        data = local_data(data)
+        self.sniffer = Sniffer(data['bus']['channel'], interface='local')
+        try:
+            self.node = start_bridge(ros, data, parameters or [])
+        except Exception:
+            self.sniffer.close()
+            raise
         self.states: list[JointState] = []
         self.axis_states: list[AxisStates] = []
         self.emcys: list[Emcy] = []
@@ -77,5 +81,7 @@ class NodeBench:
         return float(dict(zip(msg.name, msg.position))[joint])
 
     def close(self) -> None:
-        self.node.close()
-        self.sniffer.close()
+        try:
+            stop_bridge(self.node)
+        finally:
+            self.sniffer.close()

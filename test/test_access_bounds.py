@@ -11,16 +11,15 @@ from typing import Any
 import can
 import psutil
 import pytest
-import yaml
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import SdoRead, SdoWrite
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 
+from bridgetools import node_snapshot, sniffing, start_bridge, stop_bridge
 from bustools import demo_data
 from drive_bridge.master.node import EMCY_HISTORY
 from drive_bridge.ros.errors import PoolBusy
-from drive_bridge.ros.node import BusNode
 from drive_bridge.ros.pool import BoundedPool
 from drive_bridge.ros.services import MAX_PENDING_REQUESTS, SERVICE_WORKERS
 from rostools import RosHarness, wait_for
@@ -54,10 +53,7 @@ def call_batch(ros: RosHarness, client: Any, requests: list[Any]) -> list[Any]:
 
 @pytest.mark.slow
 def test_a_long_run_of_requests_and_emcys_leaves_nothing_behind(ros: RosHarness) -> None:
-    data = demo_data()
-    node = BusNode(context=ros.context, node_name='bounds_bridge',
-                   parameter_overrides=[Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False))])
-    ros.add(node)
+    node = start_bridge(ros, demo_data(), node_name='bounds_bridge')
     try:
         node.master.wait_until_operational(15.0)
         client = ros.node('bounds_client')
@@ -77,17 +73,18 @@ def test_a_long_run_of_requests_and_emcys_leaves_nothing_behind(ros: RosHarness)
                 rate = Parameter('publish_rate', value=float(50 + i % 2 * 50)).to_parameter_msg()
                 assert call_batch(ros, params, [SetParameters.Request(parameters=[rate])])[0].results[0].successful
         rounds(5)  # warm-up: pools, clients and caches reach their working size
-        process = psutil.Process()
+        process, bus_process = psutil.Process(), psutil.Process(node.master.pid)
         threads, rss = {t.name for t in threading.enumerate()}, process.memory_info().rss
+        bus_rss = bus_process.memory_info().rss  # the master's histories live in the bus process
         started = time.monotonic()
         rounds(120)  # 1920 service calls and 120 parameter sets
-        with can.Bus(interface='virtual', channel=data['bus']['channel'], receive_own_messages=False) as bus:
+        with sniffing(node) as bus:  # a participant of the node's local bus
             for i in range(300):  # EMCY "error reset" frames from node 2, each told apart by its last byte
                 bus.send(can.Message(arbitration_id=0x82, data=bytes([0, 0, 0, 0, 0, 0, 0, i % 256]),
                                      is_extended_id=False))
                 if i % 50 == 49:
                     time.sleep(0.02)
-        history = wait_for(lambda: (h := node.master.nodes['base_drive'].emcy_history()) and
+        history = wait_for(lambda: (h := node_snapshot(node, 'base_drive').emcy) and
                            h[-1].manufacturer[-1] == 299 % 256 and h, 10, 'the last EMCY')
         assert len(history) == EMCY_HISTORY
         assert len(node.master.events) <= EVENT_HISTORY
@@ -98,6 +95,9 @@ def test_a_long_run_of_requests_and_emcys_leaves_nothing_behind(ros: RosHarness)
         growth = (process.memory_info().rss - rss) / 2 ** 20
         print(f'RSS growth over the long run: {growth:.2f} MB')
         assert growth < 20, f'RSS grew {growth:.1f} MB over {time.monotonic() - started:.1f} s'
+        bus_growth = (bus_process.memory_info().rss - bus_rss) / 2 ** 20
+        print(f'bus process RSS growth over the long run: {bus_growth:.2f} MB')
+        assert bus_growth < 20, f'the bus process\'s RSS grew {bus_growth:.1f} MB'
         assert node.bridge.service_handlers.pool.limit == MAX_PENDING_REQUESTS
     finally:
-        node.close()
+        stop_bridge(node)

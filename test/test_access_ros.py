@@ -16,10 +16,9 @@ import pytest
 import yaml
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import AxisCommand, NmtCommand, ParamRead, ParamSave, ParamWrite, SdoRead, SdoWrite
-from rclpy.parameter import Parameter
 
+from bridgetools import node_snapshot, start_bridge, stop_bridge
 from bustools import demo_data
-from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, ros_harness, wait_for
 
 AKD_EXAMPLE = Path(__file__).resolve().parent.parent / 'config' / 'akd_pvt_example.yaml'
@@ -37,13 +36,13 @@ EXPLICIT = {
 }
 
 
-def config_text(access: dict[str, Any] | None) -> str:
+def config_data(access: dict[str, Any] | None) -> dict[str, Any]:
     data = demo_data()
     data['nodes'] = {'base_drive': data['nodes']['base_drive'],
                      'akd': yaml.safe_load(AKD_EXAMPLE.read_text())['nodes']['akd']}
     if access is not None:
         data['access'] = access
-    return yaml.safe_dump(data, sort_keys=False)
+    return data
 
 
 class Bridge:
@@ -52,9 +51,7 @@ class Bridge:
     def __init__(self, ros: RosHarness, name: str, access: dict[str, Any] | None) -> None:
         self.ros = ros
         self.name = name
-        self.node = BusNode(context=ros.context, node_name=name,
-                            parameter_overrides=[Parameter('config_yaml', value=config_text(access))])
-        ros.add(self.node)
+        self.node = start_bridge(ros, config_data(access), node_name=name)
         self.client = ros.node(f'{name}_client')
         self.clients: dict[str, Any] = {}
 
@@ -87,7 +84,7 @@ def bridges() -> Iterator[dict[str, Bridge]]:
             yield made
         finally:
             for bridge in made.values():
-                bridge.node.close()
+                stop_bridge(bridge.node)
 
 
 def refused(response: Any, rule: str, *words: str) -> None:
@@ -128,12 +125,12 @@ def test_default_nmt_reaches_configured_nodes_only_and_boot_writes_stay_open(bri
             'all nodes (node_id 0)', 'the configured nodes (the default)')
     refused(bridge.call(NmtCommand, 'nmt', command=NmtCommand.Request.RESET_NODE, node_id=50), 'access.nmt',
             'node 50 is not allowed')
-    node = bridge.node.master.nodes['base_drive']
-    attempts = node.boot_attempts
+    attempts = node_snapshot(bridge.node, 'base_drive').boot_attempts
     reset = bridge.call(NmtCommand, 'nmt', command=NmtCommand.Request.RESET_NODE, node_id=BASE)
     assert reset.success, reset.message
     # the bridge configures the node again (0x1017, 0x1016, PDO maps): its own writes are not governed
-    wait_for(lambda: node.boot_attempts > attempts and node.available, 10, 'node 2 configured again')
+    wait_for(lambda: (node := node_snapshot(bridge.node, 'base_drive')).boot_attempts > attempts and node.available,
+             10, 'node 2 configured again')
     assert bridge.sim(BASE).value(0x1017) == 100
 
 
@@ -174,7 +171,7 @@ def test_read_only_refuses_every_write_and_keeps_reads_and_motion(bridges: dict[
     # the bridge booted the drives (its own writes) and axis services are not governed
     enabled = bridge.call(AxisCommand, 'enable', joints=['base_joint'])
     assert enabled.success, enabled.message
-    assert bridge.node.master.nodes['base_drive'].available
+    assert node_snapshot(bridge.node, 'base_drive').available
 
 
 def test_concurrent_requests_are_each_refused_and_the_node_keeps_serving(bridges: dict[str, Bridge]) -> None:

@@ -14,18 +14,17 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import yaml
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import SdoWrite
 from rclpy.parameter import Parameter
 from trajectory_msgs.msg import JointTrajectory
 
+from bridgetools import start_bridge, stop_bridge
 from bustools import demo_data
 from diagnosetools import check_self_contained
 from drive_bridge.bag.source import open_recording
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.cli.main import main
-from drive_bridge.ros.node import BusNode
 from nodebench import NS, point
 from rostools import RosHarness, wait_for
 
@@ -40,11 +39,9 @@ def one(findings: list[dict[str, Any]], kind: str, node: int, text: str = '') ->
 
 @pytest.mark.slow
 def test_a_bag_the_bridge_recorded_names_each_injected_fault(ros: RosHarness, tmp_path: Path) -> None:
-    node = BusNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
+    node = start_bridge(ros, demo_data(), [  # node.simulation: the drives in this process, on the node's bus
         Parameter('auto_enable', value=True),
         Parameter('record.path', value=str(tmp_path / 'bags')), Parameter('record.start', value=True)])
-    ros.add(node)
     injected: dict[str, float] = {}
     try:
         node.master.wait_until_operational(10.0)
@@ -75,7 +72,7 @@ def test_a_bag_the_bridge_recorded_names_each_injected_fault(ros: RosHarness, tm
         wait_for(lambda: any(e.kind.value == 'unexpected_boot' for e in node.master.events), 5, 'reboot noticed')
         time.sleep(0.5)
     finally:
-        node.close()
+        stop_bridge(node)
     bag, = (tmp_path / 'bags').iterdir()
     t0 = next(iter(open_recording(bag).frames())).timestamp
 

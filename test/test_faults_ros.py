@@ -6,7 +6,6 @@ from __future__ import annotations
 import time
 
 import pytest
-import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -16,6 +15,7 @@ from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from bridgetools import fresh_snapshot, node_snapshot, sniffing
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from faulttools import demo_bridge
@@ -28,9 +28,8 @@ Result = FollowJointTrajectory.Result
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    node = demo_bridge(ros)
-    yield node
-    node.close()
+    with demo_bridge(ros) as node:
+        yield node
 
 
 def goal(ros: RosHarness, client: ActionClient, joints: list[str], targets: list[float], seconds: float):
@@ -73,9 +72,8 @@ SLOW_SDO_TIMEOUT = 1.5  # s: node 3's SDO timeout in the next test, longer than 
 def slow_sdo_bridge(ros: RosHarness):
     data = demo_data()
     data['nodes']['arm_drive'].update(sdo_timeout_ms=round(SLOW_SDO_TIMEOUT * 1000), sdo_retries=0)
-    node = demo_bridge(ros, config_yaml=yaml.safe_dump(data, sort_keys=False))
-    yield node
-    node.close()
+    with demo_bridge(ros, data) as node:
+        yield node
 
 
 def test_an_sdo_timeout_mid_call_names_node_and_object_and_nothing_else_waits(ros: RosHarness,
@@ -97,7 +95,7 @@ def test_an_sdo_timeout_mid_call_names_node_and_object_and_nothing_else_waits(ro
     # 1.5 s timeout; a busy machine pauses them by itself for up to BUSY_SLACK)
     assert gaps and max(gaps) < BUSY_SLACK < SLOW_SDO_TIMEOUT, max(gaps)
     assert all(a.snapshot().state is State.OPERATION_ENABLED for a in bridge.master.axes.values())
-    assert bridge.master.nodes['arm_drive'].available  # a slow SDO is not a lost node
+    assert node_snapshot(bridge, 'arm_drive', fresh=True).available  # a slow SDO is not a lost node
     other = ros.call(client, SdoRead.Request(node_id=2, index=0x1018, subindex=2), timeout=15)
     assert other.success and other.value.uint_value == 0x402
     bridge.simulation.drive(3).set_sdo_delay(0.0)
@@ -144,21 +142,18 @@ def test_a_babbling_node_is_rate_limited_on_emcy_and_the_log(ros: RosHarness, br
     ros.node('flood_emcy').create_subscription(Emcy, f'{NS}/emcy', emcys.append, 1000)
     ros.node('flood_log').create_subscription(Log, '/rosout', logs.append, 1000)
     time.sleep(0.3)  # discovery
-    rogue = can.Bus(interface='virtual', channel=bridge.master.config.bus.channel)
-    start = time.monotonic()
-    try:
+    with sniffing(bridge) as rogue:  # a participant of the node's local bus
+        start = time.monotonic()
         for _ in range(2000):  # as fast as this process can: above a 1 Mbit/s bus's rate
             rogue.send(can.Message(arbitration_id=0x082, data=b'\x00\x10\x01\x00\x00\x00\x00\x00',
                                    is_extended_id=False))
-    finally:
-        rogue.shutdown()
-    took = time.monotonic() - start
+        took = time.monotonic() - start
     wait_for(lambda: any('EMCY flood' in m.msg for m in logs), 3, 'the flood logged')
     time.sleep(0.5)
     # at most the rate over the time since the first (the receive thread may lag the sender)
     bound = EMCY_BURST + EMCY_RATE * (time.monotonic() - start) + 5
     assert len(emcys) <= bound, (len(emcys), took)
     assert len([m for m in logs if '0x1000' in m.msg]) <= bound
-    node = next(n for n in bridge.master.snapshot().nodes if n.node_id == 2)
+    node = next(n for n in fresh_snapshot(bridge).nodes if n.node_id == 2)
     assert node.emcy_suppressed >= 2000 - bound
     assert all(a.snapshot().state is State.OPERATION_ENABLED for a in bridge.master.axes.values())

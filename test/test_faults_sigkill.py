@@ -1,8 +1,11 @@
-"""Fault catalogue: the bridge process killed with SIGKILL while its joints move. The
-drives, in a process of their own (``drive-bridge sim`` over the ``local`` transport),
-stop by themselves: their heartbeat consumer (0x1016, written by the bridge at boot)
-misses the master's heartbeat and faults them (EMCY 0x8130), so no joint keeps its last
-command. An observer on the bus watches, passively until the kill, by SDO afterwards."""
+"""Fault catalogue: the bridge's node process killed with SIGKILL while its joints move. The
+drives run in a process of their own (``drive-bridge sim`` over the ``local`` transport). The
+node's bus process (the Master and the cycle, its child) sees its lanes close and stops every
+enabled axis in a controlled way (``busproc/safestop.py``): a quick stop, at rest the drive has
+left operation (or is disabled), then it ends. Only then do the drives' heartbeat consumers
+(0x1016, written by the bridge at boot) miss the master's heartbeat and fault them (EMCY
+0x8130): the safety net is still there, but no joint waited for it. An observer on the bus
+watches, passively until the bus process has ended, by SDO afterwards."""
 from __future__ import annotations
 
 import importlib.util
@@ -15,6 +18,7 @@ import time
 import uuid
 from pathlib import Path
 
+import psutil
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
@@ -33,6 +37,10 @@ REPO = Path(__file__).resolve().parent.parent
 NODES = (2, 3, 4)
 HEARTBEAT_ERROR = 0x8130  # CiA 301: life guard error or heartbeat error
 SW_FAULT = 0x0008
+# (node, controlword RPDO, statusword TPDO) of every axis of the demo (node 3: axis 1 at 0x6840/0x6841)
+AXES = ((2, 0x202, 0x182), (3, 0x203, 0x183), (3, 0x403, 0x383), (4, 0x204, 0x184))
+QUICK_STOP_MASK, QUICK_STOP = 0x86, 0x02  # CiA 402 device control command "quick stop"
+OPERATION_ENABLED_MASK, OPERATION_ENABLED = 0x6F, 0x27
 
 
 def python(*code_and_args: str) -> list[str]:
@@ -51,10 +59,11 @@ def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path)
     data['simulation'] = {'enabled': False}
     config = tmp_path / 'bus.yaml'
     config.write_text(yaml.safe_dump(data))
+    bridge_log = (tmp_path / 'bridge.log').open('w')  # the bus process inherits it: never a full pipe
     sim = subprocess.Popen(python('import sys; from drive_bridge.cli.main import main; sys.exit(main(sys.argv[1:]))',
                                   'sim', str(DEMO), '--interface', 'local', '--channel', channel),
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    bridge = None
+    bridge = bus_process = None
     observer = canopen.Network(open_bus('local', channel))
     try:
         assert sim.stdout is not None
@@ -69,12 +78,15 @@ def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path)
         for node_id in NODES:
             observer.subscribe(0x80 + node_id, record)  # EMCY
             observer.subscribe(0x180 + node_id, record)  # TPDO1 (statusword, position)
+        for _node, rpdo, tpdo in AXES:
+            observer.subscribe(rpdo, record)  # the master's controlword
+            observer.subscribe(tpdo, record)  # the drive's statusword
         remote = canopen.RemoteNode(2, canopen.import_od(str(REPO / 'drive_bridge/families/data/generic402.eds'), 2))
         observer.add_node(remote)
 
         bridge = subprocess.Popen(python('from drive_bridge.cli.bridge import bridge_main; bridge_main()',
                                          str(config), '--ros-args', '-p', 'auto_enable:=true'),
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+                                  stdout=subprocess.DEVNULL, stderr=bridge_log, text=True, env=env)
         states: list[JointState] = []
         ros.node('kill_states').create_subscription(JointState, '/joint_states', states.append, 100)
         wait_for(lambda: states and len(states[-1].name) == 4, 30, 'joint states of the bridge process')
@@ -94,17 +106,43 @@ def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path)
                  > 0.05, 10, f'base_joint moving (command errors: {[e.data for e in errors]})')
         tpdo = [f for f in frames if f[1] == 0x182][-20:]
         assert len({f[2] for f in tpdo}) > 5  # the drive reports a changing position: it moves
+        bus_process = next(p for p in psutil.Process(bridge.pid).children()
+                           if 'drive_bridge.busproc' in ' '.join(p.cmdline()))
 
         bridge.send_signal(signal.SIGKILL)
         killed = time.monotonic()
         bridge.wait(5)
 
-        def heartbeat_errors() -> set[int]:
+        def after_kill(cob: int) -> list[tuple[float, bytes]]:
             with lock:
-                return {cob - 0x80 for t, cob, data in frames if t >= killed and 0x81 <= cob <= 0xFF
-                        and int.from_bytes(data[:2], 'little') == HEARTBEAT_ERROR}
-        wait_for(lambda: heartbeat_errors() == set(NODES), 3, 'EMCY 0x8130 (heartbeat consumer) from every drive')
-        assert time.monotonic() - killed < 2.0  # 300 ms consumer time + scheduling, generous
+                return [(t, data) for t, c, data in frames if t >= killed and c == cob]
+
+        def quick_stopped(rpdo: int) -> float | None:
+            return next((t for t, data in after_kill(rpdo)
+                         if int.from_bytes(data[:2], 'little') & QUICK_STOP_MASK == QUICK_STOP), None)
+        # the bus process stops every axis: a quick stop on each axis's controlword, at once
+        stops = {rpdo: wait_for(lambda rpdo=rpdo: quick_stopped(rpdo), 3, f'a quick stop on 0x{rpdo:03X}')
+                 for _node, rpdo, _tpdo in AXES}
+        assert max(stops.values()) - killed < 1.5, {f'0x{c:03X}': round(t - killed, 3) for c, t in stops.items()}
+        bus_process.wait(15)  # at rest (or out of operation) on every axis, it ends
+        ended = time.monotonic()
+
+        def heartbeat_errors() -> dict[int, float]:
+            with lock:
+                found: dict[int, float] = {}
+                for t, cob, data in frames:
+                    if t >= killed and 0x81 <= cob <= 0xFF and int.from_bytes(data[:2], 'little') == HEARTBEAT_ERROR:
+                        found.setdefault(cob - 0x80, t)
+                return found
+        # every axis had left operation enabled before the drives' own safety net fired
+        net = min(heartbeat_errors().values(), default=ended)
+        for _node, _rpdo, tpdo in AXES:
+            last = [int.from_bytes(data[:2], 'little') for t, data in after_kill(tpdo) if t < net][-1:]
+            assert last and last[0] & OPERATION_ENABLED_MASK != OPERATION_ENABLED, \
+                f'0x{tpdo:03X}: statusword {last} when the bus process was gone'
+        # the net is still there: the drives' heartbeat consumers fault them once the master is silent
+        wait_for(lambda: set(heartbeat_errors()) == set(NODES), 3, 'EMCY 0x8130 (heartbeat consumer) from every drive')
+        assert time.monotonic() - ended < 2.0  # 300 ms consumer time + scheduling, generous
         statusword = remote.sdo.upload(0x6041, 0)
         assert int.from_bytes(statusword, 'little') & SW_FAULT
         first = remote.sdo.upload(0x6064, 0)
@@ -113,6 +151,9 @@ def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path)
     finally:
         if bridge is not None and bridge.poll() is None:
             bridge.kill()
+        bridge_log.close()
+        if bus_process is not None and bus_process.is_running():
+            bus_process.kill()  # a failure may leave it running (it has no parent any more)
         sim.send_signal(signal.SIGTERM)
         try:
             sim.wait(10)

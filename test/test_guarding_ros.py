@@ -5,15 +5,14 @@ and when it answers again it is configured again but not re-enabled."""
 from __future__ import annotations
 
 import time
+from typing import Any
 
-import yaml
 from drive_bridge_interfaces.msg import AxisState, AxisStates
 from rcl_interfaces.msg import Log
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from bustools import unique_channel
-from drive_bridge.ros.node import BusNode
+from bridgetools import bridge_with_sim
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
@@ -21,22 +20,18 @@ NODE = 7
 JOINT = 'gripper_joint'
 
 
-def config_text(channel: str) -> str:
-    return yaml.safe_dump({
-        'bus': {'interface': 'virtual', 'channel': channel},
+def config_data() -> dict[str, Any]:
+    return {
+        'bus': {'interface': 'virtual', 'channel': 'guardros'},  # bridgetools: a local channel of its own
         'master': {'sync_period': 4000},
         'nodes': {'gripper': {'node_id': NODE, 'family': 'generic_402', 'guard_time_ms': 50,
                               'life_time_factor': 3, 'axes': [{'joint': JOINT}]}},
         'simulation': {'enabled': True, 'nodes': {'gripper': {'heartbeat': False}}},
-    })
+    }
 
 
 def test_guarded_joint_leaves_joint_states_when_the_drive_stops_answering(ros: RosHarness) -> None:
-    node = BusNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=config_text(unique_channel('guardros'))),
-        Parameter('auto_enable', value=True)])
-    ros.add(node)
-    try:
+    with bridge_with_sim(ros, config_data(), [Parameter('auto_enable', value=True)]) as node:
         states: list[JointState] = []
         axis_states: list[AxisStates] = []
         logs: list[Log] = []
@@ -65,5 +60,3 @@ def test_guarded_joint_leaves_joint_states_when_the_drive_stops_answering(ros: R
         time.sleep(0.3)
         assert axis_states[-1].axes[0].drive_state != AxisState.DRIVE_ENABLED, 're-enabled by itself'
         assert back.joint_name == JOINT
-    finally:
-        node.close()

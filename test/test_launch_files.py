@@ -248,8 +248,10 @@ def test_the_ros2_control_topics_drive_the_demo(ros: RosHarness) -> None:
         latest = wait_for(lambda: states[-1] if states else None, 10, 'joint states on the URDF topic')
         start = dict(zip(latest.name, latest.position))
         assert set(start) == set(joints)
-        step = 0.05
-        for i in range(1, 51):  # 100 Hz for 0.5 s, a ramp to start + step
+        # 100 Hz for 0.5 s, a ramp to start + step: each command a step the cycle check allows in one
+        # 4 ms cycle (lift_joint: max_velocity 0.2 m/s, so at most 0.8 mm per command)
+        step = 0.03
+        for i in range(1, 51):
             commands_out.publish(JointState(name=list(joints), position=[start[j] + step * i / 50 for j in joints]))
             time.sleep(0.01)
         for joint in joints:

@@ -11,6 +11,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
+from bridgetools import bridge_with_sim
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.lifecycle import BusLifecycleNode
@@ -24,10 +25,7 @@ def transition(ros: RosHarness, client, transition_id: int) -> bool:
 
 
 def test_lifecycle_transitions_boot_start_halt_and_release(ros: RosHarness) -> None:
-    node = BusLifecycleNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False))])
-    ros.add(node)
-    try:
+    with bridge_with_sim(ros, demo_data(), lifecycle=True) as node:  # the drives in this process, on its bus
         tester = ros.node('lifecycle_tester')
         change = tester.create_client(ChangeState, f'{NS}/change_state')
         get = tester.create_client(GetState, f'{NS}/get_state')
@@ -51,7 +49,7 @@ def test_lifecycle_transitions_boot_start_halt_and_release(ros: RosHarness) -> N
         assert all(a.state is State.OPERATION_ENABLED for a in axes.values())
 
         assert transition(ros, change, Transition.TRANSITION_DEACTIVATE)
-        sim = node.bridge.simulation
+        sim = node.simulation
         wait_for(lambda: sim.drive(2).axis(0).controlword & 0x100, 3, 'HALT bit after deactivate')
         assert axes['base_joint'].state is State.OPERATION_ENABLED  # halted, still enabled
         commands = tester.create_publisher(Float64MultiArray, f'{NS}/commands', 10)
@@ -69,8 +67,6 @@ def test_lifecycle_transitions_boot_start_halt_and_release(ros: RosHarness) -> N
         assert ros.call(get, GetState.Request()).current_state.label == 'unconfigured'
         assert transition(ros, change, Transition.TRANSITION_CONFIGURE)  # again, on a fresh bus
         node.bridge.master.wait_until_operational(10)
-    finally:
-        node.close()
 
 
 def test_configure_fails_cleanly_on_a_bad_configuration(ros: RosHarness) -> None:

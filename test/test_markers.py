@@ -13,8 +13,10 @@ HERE = Path(__file__).resolve().parent
 
 
 def test_a_module_is_marked_by_what_it_uses() -> None:
-    assert module_kinds(HERE / 'test_ros_node.py') == {'ros'}  # rclpy, drive_bridge.ros
-    assert module_kinds(HERE / 'test_faults_messages.py') == {'ros'}  # faulttools.demo_bridge imports ROS inside
+    # rclpy, drive_bridge.ros; bridgetools runs the simulated drives in the test's process
+    assert module_kinds(HERE / 'test_ros_node.py') == {'ros', 'sim'}
+    # faulttools.demo_bridge imports ROS inside; bridgetools (its fresh snapshots) the simulator
+    assert module_kinds(HERE / 'test_faults_messages.py') == {'ros', 'sim'}
     assert module_kinds(HERE / 'test_faults_flood.py') == {'sim'}  # bustools.running starts simulated drives
     assert module_kinds(HERE / 'test_bag_passive.py') == set()  # bustools.unique_channel uses no simulator
     assert module_kinds(HERE / 'test_config_load.py') == set()

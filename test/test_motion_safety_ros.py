@@ -12,7 +12,6 @@ import time
 from typing import Any
 
 import pytest
-import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.msg import AxisStates, SdoValue
@@ -23,12 +22,11 @@ from std_msgs.msg import Float64MultiArray, String
 from test_ros_parameters import ParameterClient
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from akdtools import Sniffer
+from bridgetools import LocalSniffer, bridge_with_sim
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
 from drive_bridge.ros.frames import stamp_from_seconds
-from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for
 
 NS = '/drive_bridge'
@@ -41,11 +39,9 @@ class Demo:
         data = demo_data()
         data.update(extra)
         self.ros = ros
-        self.sniffer = Sniffer(data['bus']['channel'])
-        self.node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)),
-            Parameter('auto_enable', value=True)])
-        ros.add(self.node)
+        self._bridge = bridge_with_sim(ros, data, [Parameter('auto_enable', value=True)])
+        self.node = self._bridge.__enter__()
+        self.sniffer = LocalSniffer(self.node.master.config.bus.channel)
         self.node.master.wait_until_operational(10.0)
         wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in self.node.master.axes.values()), 10,
                  'auto_enable of every axis')
@@ -92,7 +88,7 @@ class Demo:
                 for f in self.sniffer.frames(RPDO2_BASE, after)]
 
     def close(self) -> None:
-        self.node.close()
+        self._bridge.__exit__(None, None, None)
         self.sniffer.close()
 
 
@@ -142,7 +138,7 @@ def test_1_the_step_and_the_overshoot_are_refused_and_no_set_point_beyond_a_limi
     assert 'segment point 0 -> point 1' in text and 'position limit 3.1' in text
     # past the validator (a bug in a set-point source): the cycle check holds the axis, says why
     # on ~/command_errors, ~/axis_states and /diagnostics, and the jump never reaches the drive
-    demo.node.master.axes['base_joint'].set_setpoint_source(lambda _t: Setpoint(position=here + 1.0))
+    demo.node.master.inject_setpoint('base_joint', Setpoint(position=here + 1.0))  # the test hook
     text = demo.error('cycle check: refused')
     assert 'base_joint' in text and 'beyond limits.max_velocity 2' in text
     wait_for(lambda: any(a.joint_name == 'base_joint' and a.halted and 'set-point refused' in a.message

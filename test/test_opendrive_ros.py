@@ -27,8 +27,7 @@ from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from akdtools import Sniffer
-from bustools import unique_channel
-from drive_bridge.ros.node import BusNode
+from bridgetools import local_data, node_snapshot, start_bridge, stop_bridge
 from rostools import RosHarness, wait_for
 from timingtools import BUSY_SLACK
 
@@ -41,14 +40,14 @@ RUN = 1
 SPEED_UNIT = 3000 * 2 * math.pi / 60 / 16384  # rad/s per unit of 0x201A
 
 
-def config_text(channel: str, simulation: dict[str, Any] | None = None, **node: Any) -> str:
-    data = yaml.safe_load(EXAMPLE.read_text())
-    data['bus']['channel'] = channel
+def config_data(simulation: dict[str, Any] | None = None, **node: Any) -> dict[str, Any]:
+    """The example on a local bus of its own (bridgetools: its simulated drive in the test)."""
+    data = local_data(yaml.safe_load(EXAMPLE.read_text()))
     data['nodes']['opendrive'].update(node)
     if simulation:
         data['simulation'] = {'enabled': True, 'nodes': {'opendrive': simulation}}
     data['access'] = {'param_save': 'configured'}  # ROS clients may not save by default
-    return yaml.safe_dump(data, sort_keys=False)
+    return data
 
 
 class Bench:
@@ -56,13 +55,14 @@ class Bench:
 
     def __init__(self, ros: RosHarness, interface: str = 'velocity', simulation: dict[str, Any] | None = None,
                  **node: Any) -> None:
-        channel = unique_channel('odros')
+        data = config_data(simulation, **node)
         self.ros = ros
-        self.sniffer = Sniffer(channel)
-        self.node = BusNode(context=ros.context, parameter_overrides=[
-            Parameter('config_yaml', value=config_text(channel, simulation, **node)),
-            Parameter('command_interface', value=interface)])
-        ros.add(self.node)
+        self.sniffer = Sniffer(data['bus']['channel'], interface='local')  # on the bus before the bridge
+        try:
+            self.node = start_bridge(ros, data, [Parameter('command_interface', value=interface)])
+        except Exception:
+            self.sniffer.close()
+            raise
         self.states: list[JointState] = []
         self.axis_states: list[AxisStates] = []
         self.logs: list[Log] = []
@@ -104,8 +104,10 @@ class Bench:
         return self.axis_states[-1].axes[0] if self.axis_states else None
 
     def close(self) -> None:
-        self.node.close()
-        self.sniffer.close()
+        try:
+            stop_bridge(self.node)
+        finally:
+            self.sniffer.close()
 
 
 @pytest.fixture
@@ -122,9 +124,9 @@ def test_guarded_without_heartbeat_lost_within_the_life_time_and_back_disabled(b
     for _ in range(5):
         bench.publisher.publish(Float64MultiArray(data=[20.0]))
         time.sleep(0.02)
-    master = bench.node.master
     time.sleep(1.0)  # answering: never declared lost (no heartbeat at all)
-    assert master.nodes['opendrive'].available and not any('lost' in m.msg for m in bench.logs)
+    assert node_snapshot(bench.node, 'opendrive', fresh=True).available
+    assert not any('lost' in m.msg for m in bench.logs)
     bench.drive.stop_guarding_replies(True)
     silent = time.monotonic()
     wait_for(lambda: next((m for m in bench.logs if 'guarding' in m.msg and 'lost' in m.msg), None), 3,

@@ -1,7 +1,8 @@
 """Drive parameters through ROS: ~/param_read, ~/param_write, ~/param_save on the bus node.
 
 A demo-like bridge (the demo's generic CiA 402 base drive, node 2, plus a simulated Kollmorgen
-AKD as node 1, joint1) runs in-process on a private rclpy context; the test talks to it only
+AKD as node 1, joint1, both simulated in the test's process: bridgetools) runs on a private
+rclpy context; the test talks to it only
 through the services and inspects the simulated AKD to see what reached it.
 """
 from __future__ import annotations
@@ -14,8 +15,8 @@ from typing import Any
 import pytest
 import yaml
 from drive_bridge_interfaces.srv import ParamRead, ParamSave, ParamWrite
-from rclpy.parameter import Parameter
 
+from bridgetools import bridge_with_sim
 from bustools import demo_data
 from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, ros_harness
@@ -24,24 +25,19 @@ NS = '/drive_bridge'
 AKD_EXAMPLE = Path(__file__).resolve().parent.parent / 'config' / 'akd_pvt_example.yaml'
 
 
-def config_text() -> str:
+def config_data() -> dict[str, Any]:
     data = demo_data()
     data['nodes'] = {'base_drive': data['nodes']['base_drive'],
                      'akd': yaml.safe_load(AKD_EXAMPLE.read_text())['nodes']['akd']}
     data['access'] = {'param_save': 'configured'}  # ROS clients may not save by default
-    return yaml.safe_dump(data, sort_keys=False)
+    return data
 
 
 @pytest.fixture(scope='module')
 def setup() -> Iterator[tuple[RosHarness, BusNode]]:
-    with ros_harness() as ros:
-        node = BusNode(context=ros.context, parameter_overrides=[Parameter('config_yaml', value=config_text())])
-        ros.add(node)
-        try:
-            node.master.wait_until_operational(15.0)
-            yield ros, node
-        finally:
-            node.close()
+    with ros_harness() as ros, bridge_with_sim(ros, config_data()) as node:  # the drives in the test
+        node.master.wait_until_operational(15.0)
+        yield ros, node
 
 
 def call(ros: RosHarness, srv_type: Any, name: str, **fields: Any) -> Any:

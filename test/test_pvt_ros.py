@@ -16,10 +16,9 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from bustools import unique_channel
+from bridgetools import bridge_with_sim
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
-from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
 from rostools import RosHarness, wait_for
 from timingtools import assert_follows
@@ -31,19 +30,14 @@ JOINT = 'joint1'
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    data = yaml.safe_load(CONFIG.read_text())
-    data['bus']['channel'] = unique_channel('akd')
-    node = BusNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=yaml.safe_dump(data, sort_keys=False)),
-        Parameter('auto_enable', value=True)])
-    ros.add(node)
-    node.master.wait_until_operational(10.0)
-    axis = node.master.axes[JOINT]
-    wait_for(lambda: axis.state is State.OPERATION_ENABLED, 10, 'enabled')
-    axis.set_mode('ip', timeout=3.0)
-    assert node.trajectories.strategy(JOINT) == 'pvt'
-    yield node
-    node.close()
+    data = yaml.safe_load(CONFIG.read_text())  # bridgetools: on a local bus, the AKD simulated in the test
+    with bridge_with_sim(ros, data, [Parameter('auto_enable', value=True)]) as node:
+        node.master.wait_until_operational(10.0)
+        axis = node.master.axes[JOINT]
+        wait_for(lambda: axis.state is State.OPERATION_ENABLED, 10, 'enabled')
+        axis.set_mode('ip', timeout=3.0)
+        assert node.trajectories.strategy(JOINT) == 'pvt'
+        yield node
 
 
 def point(t: float, positions, velocities=()) -> JointTrajectoryPoint:

@@ -20,6 +20,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from bridgetools import bridge_with_sim, node_snapshot
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
@@ -35,15 +36,11 @@ NS = '/drive_bridge'
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    text = yaml.safe_dump(demo_data(), sort_keys=False)
-    node = BusNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=text), Parameter('auto_enable', value=True)])
-    ros.add(node)
-    node.master.wait_until_operational(10.0)
-    wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10,
-             'auto_enable of every axis')
-    yield node
-    node.close()
+    with bridge_with_sim(ros, demo_data(), [Parameter('auto_enable', value=True)]) as node:
+        node.master.wait_until_operational(10.0)
+        wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10,
+                 'auto_enable of every axis')
+        yield node
 
 
 class Recorder:
@@ -212,8 +209,8 @@ def test_sdo_and_nmt_services_answer_typed_values_and_precise_errors(ros: RosHar
     assert not bad.success and 'unknown NMT command 7' in bad.message
     reset = call(ros, NmtCommand, f'{NS}/nmt', command=NmtCommand.Request.RESET_NODE, node_id=4)
     assert reset.success and reset.message == 'NMT reset node sent to node 4'
-    wait_for(lambda: (bridge.master.nodes['lift_drive'].boot_attempts >= 2
-                      and bridge.master.nodes['lift_drive'].available),
+    wait_for(lambda: (node_snapshot(bridge, 'lift_drive').boot_attempts >= 2
+                      and node_snapshot(bridge, 'lift_drive').available),
              5, 'node 4 configured again after its reset')
 
 

@@ -26,7 +26,6 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from bustools import unique_channel
 from nodebench import NS, NodeBench, point
 from rostools import RosHarness, wait_for
 from timingtools import assert_follows
@@ -42,24 +41,22 @@ Result = FollowJointTrajectory.Result
 pytestmark = pytest.mark.skipif(not MODULAR.exists(), reason='the Siemens EDS is in ../shared/realdata/eds')
 
 
-def config_text(channel: str, arm: dict[str, Any] | None = None, wrist: dict[str, Any] | None = None,
-                reverse_arm: bool = False) -> str:
-    data = yaml.safe_load(EXAMPLE.read_text())
-    data['bus']['channel'] = channel
+def config_data(arm: dict[str, Any] | None = None, wrist: dict[str, Any] | None = None,
+                reverse_arm: bool = False) -> dict[str, Any]:
+    data = yaml.safe_load(EXAMPLE.read_text())  # NodeBench puts it on a local bus of its own
     data['defaults']['dcf'] = str(MODULAR)
     data['simulation']['nodes']['arm'].update(arm or {})
     data['simulation']['nodes']['wrist'].update(wrist or {})
     if reverse_arm:
         data['nodes']['arm']['axes'].reverse()
-    return yaml.safe_dump(data, sort_keys=False)
+    return data
 
 
 class Bench(NodeBench):
     """The S120 example's bus node (commands on ~/commands reach every joint in config order)."""
 
     def __init__(self, ros: RosHarness, interface: str = 'position', **config: Any) -> None:
-        channel = unique_channel('s120ros')
-        super().__init__(ros, channel, config_text(channel, **config), JOINTS,
+        super().__init__(ros, config_data(**config), JOINTS,
                          [Parameter('command_interface', value=interface)])
 
 @pytest.fixture

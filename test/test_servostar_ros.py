@@ -10,6 +10,7 @@ import math
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -21,7 +22,6 @@ from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from trajectory_msgs.msg import JointTrajectory
 
-from bustools import unique_channel
 from nodebench import NS, NodeBench, point
 from rostools import RosHarness, wait_for
 from timingtools import assert_follows
@@ -35,18 +35,15 @@ SYNC = 0x080
 Result = FollowJointTrajectory.Result
 
 
-def config_text(channel: str) -> str:
-    data = yaml.safe_load(EXAMPLE.read_text())
-    data['bus']['channel'] = channel
-    return yaml.safe_dump(data, sort_keys=False)
+def config_data() -> dict[str, Any]:
+    return yaml.safe_load(EXAMPLE.read_text())  # NodeBench puts it on a local bus of its own
 
 
 class Bench(NodeBench):
     """The SERVOSTAR example's bus node, joint states at 100 Hz."""
 
     def __init__(self, ros: RosHarness) -> None:
-        channel = unique_channel('servostarros')
-        super().__init__(ros, channel, config_text(channel), JOINTS,
+        super().__init__(ros, config_data(), JOINTS,
                          [Parameter('publish_rate', value=100.0)], call_timeout=20.0)
 
     def setpoints_per_sync(self, mark: int, node: int = X) -> list[int]:

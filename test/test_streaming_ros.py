@@ -27,6 +27,7 @@ from trajectory_msgs.msg import (
     MultiDOFJointTrajectoryPoint,
 )
 
+from bridgetools import bridge_with_sim
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
@@ -39,14 +40,10 @@ Result = FollowJointTrajectory.Result
 
 @pytest.fixture
 def bridge(ros: RosHarness):
-    node = BusNode(context=ros.context, parameter_overrides=[
-        Parameter('config_yaml', value=yaml.safe_dump(demo_data(), sort_keys=False)),
-        Parameter('auto_enable', value=True)])
-    ros.add(node)
-    node.master.wait_until_operational(10.0)
-    wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
-    yield node
-    node.close()
+    with bridge_with_sim(ros, demo_data(), [Parameter('auto_enable', value=True)]) as node:  # drives in the test
+        node.master.wait_until_operational(10.0)
+        wait_for(lambda: all(a.state is State.OPERATION_ENABLED for a in node.master.axes.values()), 10, 'enabled')
+        yield node
 
 
 def point(t: float, positions, velocities=()) -> JointTrajectoryPoint:

@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from waittools import wait_for
+
 # s: how long a busy 2-core machine may hold a test's threads off the CPU. Seen: 0.36-0.4 s
 # stalls of a process in CI, a 10-million-step loop taking 2.4-3.3 s instead of ~0.8 s.
 BUSY_SLACK = 1.0
@@ -24,19 +26,27 @@ def quantile(values: Sequence[float], q: float) -> float:
 
 
 class CycleWatch:
-    """The SYNC cycles a master ran and the grid points it skipped since this was made."""
+    """The SYNC cycles a master ran and the grid points it skipped since this was made: a core
+    Master's own counts, or a bus node's (``node.master``, the bus process's client) from
+    snapshots the bus process took after each read."""
 
     def __init__(self, master: Any) -> None:
-        self.sync = master.sync
-        self.cycles0, self.skipped0 = self.sync.cycles, self.sync.skipped
+        self.master = master
+        self.cycles0, self.skipped0 = self._counts()
+
+    def _counts(self) -> tuple[int, int]:
+        sync = getattr(self.master, 'sync', None)
+        if sync is None:  # the bus process's client
+            sync = fresh_snapshot(self.master).sync
+        return int(sync.cycles), int(sync.skipped)
 
     @property
     def cycles(self) -> int:
-        return int(self.sync.cycles - self.cycles0)
+        return self._counts()[0] - self.cycles0
 
     @property
     def skipped(self) -> int:
-        return int(self.sync.skipped - self.skipped0)
+        return self._counts()[1] - self.skipped0
 
     @property
     def skip_share(self) -> float:
@@ -67,3 +77,26 @@ def assert_follows(errors: Sequence[float], tolerance: float, limit: float | Non
     within, worst = quantile(errors, share), max(errors)
     assert within < tolerance and worst < limit, \
         f'path error {100 * share:.0f} % {within:.4f} (bound {tolerance}), max {worst:.4f} (bound {limit})'
+
+
+def _progress(snapshot: Any) -> tuple[int, int, int]:
+    sync = snapshot.sync
+    return (sync.cycles if sync is not None else 0, snapshot.traffic.rx_frames, snapshot.traffic.tx_frames)
+
+
+def fresh_snapshot(node: Any, timeout: float = 5.0) -> Any:
+    """The bus as the bus process saw it after this call (``node``: a bus node, or its client).
+    ``master.snapshot()`` answers with the last snapshot it has and asks for the next one; an
+    answer may be on its way already, so the second snapshot that shows progress was taken after
+    the call."""
+    client = getattr(node, 'master', node)
+    seen = [_progress(client.snapshot())]
+
+    def newer() -> Any | None:
+        snapshot = client.snapshot()
+        if _progress(snapshot) > seen[-1]:
+            seen.append(_progress(snapshot))
+            if len(seen) == 3:
+                return snapshot
+        return None
+    return wait_for(newer, timeout, 'a new snapshot from the bus process')

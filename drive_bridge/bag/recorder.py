@@ -47,10 +47,12 @@ class RecorderStats:
     running: bool
     error: str            # why the writer stopped, '' when it did not fail
     dropped_fd: int = 0   # of ``dropped``: CAN FD frames (a bag's CanFrame holds classic frames only)
+    dropped_upstream: int = 0  # frames lost before they reached the recorder (the bus process's queue)
 
     def summary(self) -> str:
         fd = f' ({self.dropped_fd} CAN FD frames: a bag holds classic CAN only)' if self.dropped_fd else ''
-        return (f'{self.path}: {self.frames} frames, {self.messages} messages, {self.dropped} dropped{fd}, '
+        upstream = f', {self.dropped_upstream} lost before the recorder' if self.dropped_upstream else ''
+        return (f'{self.path}: {self.frames} frames, {self.messages} messages, {self.dropped} dropped{fd}{upstream}, '
                 f'{self.bytes / 1e6:.1f} MB in {self.splits + (1 if self.split else 0)} split(s)'
                 + (f'; error: {self.error}' if self.error else ''))
 
@@ -63,12 +65,16 @@ class Recorder:
 
     def __init__(self, path: Path, *, channel: str = '', split_bytes: int | None = None,
                  split_seconds: float | None = None, config_yaml: str | None = None,
-                 files: Mapping[str, bytes] = {}, queue_frames: int = QUEUE_FRAMES) -> None:
+                 files: Mapping[str, bytes] = {}, queue_frames: int = QUEUE_FRAMES,
+                 upstream_drops: Callable[[], int] | None = None) -> None:
+        """``upstream_drops``: how many frames were lost before they reached this recorder so far
+        (kept in metadata.yaml's custom_data as ``frames_dropped_upstream``)."""
         self.writer = BagWriter(path, split_bytes=split_bytes, split_seconds=split_seconds,
                                 config_yaml=config_yaml, files=files)
         self.path = self.writer.path
         self.channel = channel
         self.queue_frames = queue_frames
+        self.upstream_drops = upstream_drops
         self._frames: deque[can.Message] = deque()
         self._messages: deque[Message] = deque()
         self.dropped = 0
@@ -126,6 +132,8 @@ class Recorder:
                     writer.write(topic, msgtype, stamp, serialize(data) if serialize is not None else data)
                     idle = False
                 now = time.monotonic()
+                if self.upstream_drops is not None:  # in the metadata written at each closed split
+                    writer.custom['frames_dropped_upstream'] = str(self.upstream_drops())
                 if now - last_flush >= FLUSH_SECONDS:
                     writer.flush()
                     last_flush = now
@@ -168,7 +176,8 @@ class Recorder:
             path=self.path, frames=writer.frames, messages=writer.messages - writer.frames,
             dropped=self.dropped, queued=len(self._frames) + len(self._messages), bytes=writer.bytes_written,
             split=split.name if split else '', splits=len(writer.splits), running=self.running, error=self.error,
-            dropped_fd=self.dropped_fd)
+            dropped_fd=self.dropped_fd,
+            dropped_upstream=self.upstream_drops() if self.upstream_drops is not None else 0)
 
 
 def config_files(config: BusConfig) -> dict[str, bytes]:

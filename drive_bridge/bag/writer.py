@@ -130,6 +130,7 @@ class BagWriter:
         self.split_bytes = split_bytes if split_bytes and split_bytes > 0 else None
         self.split_ns = round(split_seconds * 1e9) if split_seconds and split_seconds > 0 else None
         self.config_yaml = config_yaml
+        self.custom: dict[str, str] = {}  # more of metadata.yaml's custom_data (e.g. frames lost before the bag)
         self.files = dict(files)
         self._compression = compression
         self._encoder = FrameEncoder()
@@ -308,10 +309,11 @@ class BagWriter:
         self._write_metadata()
 
     def _write_metadata(self) -> None:
-        write_metadata(self.path, self.splits, {t: s.msgtype for t, s in self.topics.items()})
+        write_metadata(self.path, self.splits, {t: s.msgtype for t, s in self.topics.items()}, self.custom)
 
 
-def write_metadata(path: Path, splits: list[SplitInfo], types: Mapping[str, str]) -> None:
+def write_metadata(path: Path, splits: list[SplitInfo], types: Mapping[str, str],
+                   custom: Mapping[str, str] = {}) -> None:
     """``metadata.yaml`` (rosbag2 version 9) for the given splits, replaced atomically."""
     store = typestore()
     counts: dict[str, int] = {}
@@ -338,7 +340,7 @@ def write_metadata(path: Path, splits: list[SplitInfo], types: Mapping[str, str]
         'files': [{'path': s.path, 'starting_time': {'nanoseconds_since_epoch': s.start_ns},
                    'duration': {'nanoseconds': s.end_ns - s.start_ns}, 'message_count': s.count}
                   for s in splits],
-        'custom_data': {'writer': 'drive_bridge'},
+        'custom_data': {'writer': 'drive_bridge', **custom},
         'ros_distro': 'jazzy',
     }
     tmp = path / 'metadata.yaml.tmp'

@@ -27,9 +27,11 @@ from drive_bridge.model import (
     HomingConfig,
     JointType,
     ModeChoice,
+    NodeLossConfig,
     PositionLoopConfig,
 )
 
+MAX_BRAKE_DELAY = 10.0  # s: on_node_loss.brake_delay
 JOINT_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 CORE_OBJECTS = (obj.CONTROLWORD, obj.STATUSWORD, obj.MODES_OF_OPERATION, obj.MODES_OF_OPERATION_DISPLAY,
                 obj.POSITION_ACTUAL)
@@ -167,6 +169,19 @@ def _position_loop(sec: Section | None, family: DriveFamily) -> PositionLoopConf
                               following_error=sec.get_number('following_error', gt=0))
 
 
+def _node_loss(sec: Section | None) -> NodeLossConfig:
+    if sec is None:
+        return NodeLossConfig()
+    sec.check_keys(keys.NODE_LOSS)
+    action = sec.get_str('action', 'disable', choices=('disable', 'hold'))
+    delay = sec.get_number('brake_delay', ge=0)
+    if delay is not None and delay > MAX_BRAKE_DELAY:
+        sec.issues.error(sec.loc('brake_delay'), f'expected at most {MAX_BRAKE_DELAY:g} s, got {delay:g}')
+        delay = None
+    return NodeLossConfig(action='hold' if action == 'hold' else 'disable',
+                          brake_delay=NodeLossConfig.brake_delay if delay is None else delay)
+
+
 def _homing(sec: Section | None) -> HomingConfig:
     if sec is None:
         return HomingConfig()
@@ -220,7 +235,8 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
                       joint_type=joint_type, scaling=scaling, limits=limits,
                       homing=_homing(sec.section('homing')), ip_submode=_interpolation(sec, family),
                       position_loop=_position_loop(sec.section('position_loop'), family),
-                      drive=_drive_options(sec, family), where=f'{file}: {loc.path}', **modes)
+                      node_loss=_node_loss(sec.section('on_node_loss')), drive=_drive_options(sec, family),
+                      where=f'{file}: {loc.path}', **modes)
     slot_loc = sec.loc('slot') if 'slot' in sec else loc
     return AxisDraft(axis, loc, sec.loc('joint'), slot_loc) if joint else None
 

@@ -51,7 +51,8 @@ NODE_IGNORED: dict[str, str] = {
 }
 
 AXIS = ('joint', 'slot', 'type', 'mode', *MODE_KEYS, 'interpolation', 'scaling', 'limits', 'homing',
-        'position_loop', 'drive')
+        'position_loop', 'on_node_loss', 'drive')
+NODE_LOSS = ('action', 'brake_delay')
 POSITION_LOOP = ('gain', 'following_error')
 PHYSICAL_SCALING = ('counts_per_revolution', 'counts_per_metre', 'gear_ratio', 'direction', 'offset',
                     'velocity_scale', 'rated_torque')

@@ -72,6 +72,23 @@ class SdoError(DriveBridgeError):
         self.reason = message
 
 
+def od_data_type(od: canopen.ObjectDictionary, node_id: int, index: int, subindex: int) -> int:
+    """Data type of an object in a node's EDS; SdoError when it is not there."""
+    where = ObjectAddress(node_id, index, subindex)
+    try:
+        entry = od[index]
+    except KeyError:
+        raise SdoError(where, 'object is not in the node\'s EDS; give its data type explicitly') from None
+    if not isinstance(entry, ODVariable):
+        try:
+            entry = entry[subindex]
+        except (KeyError, IndexError):
+            raise SdoError(where, 'sub-index is not in the node\'s EDS; give the data type explicitly') from None
+    elif subindex != 0:
+        raise SdoError(where, 'object is a plain variable: its only sub-index is 0')
+    return int(entry.data_type or 0)
+
+
 def _codec(index: int, subindex: int, data_type: int) -> ODVariable:
     var = ODVariable('value', index, subindex)
     var.data_type = data_type
@@ -171,19 +188,7 @@ class SdoChannel:
 
     def od_type(self, index: int, subindex: int) -> int:
         """Data type of an object from the node's EDS; SdoError when it is not there."""
-        where = self._where(index, subindex)
-        try:
-            entry = self.node.object_dictionary[index]
-        except KeyError:
-            raise SdoError(where, 'object is not in the node\'s EDS; give its data type explicitly') from None
-        if not isinstance(entry, ODVariable):
-            try:
-                entry = entry[subindex]
-            except (KeyError, IndexError):
-                raise SdoError(where, 'sub-index is not in the node\'s EDS; give the data type explicitly') from None
-        elif subindex != 0:
-            raise SdoError(where, 'object is a plain variable: its only sub-index is 0')
-        return int(entry.data_type or 0)
+        return od_data_type(self.node.object_dictionary, int(self.node.id or 0), index, subindex)
 
     def read(self, index: int, subindex: int, data_type: int = AUTO) -> tuple[int, SdoPlain, bytes]:
         """(data type used, value, raw bytes) of one object."""

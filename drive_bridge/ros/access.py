@@ -6,9 +6,9 @@ A refusal is an :class:`AccessRefused` whose message starts with the service and
 """
 from __future__ import annotations
 
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.families.interface import RESTORE_DEFAULT_PARAMETERS, STORE_PARAMETERS, DriveFamily
 from drive_bridge.families.parameters import ParameterAccess
-from drive_bridge.master.master import Master
 from drive_bridge.model import AccessConfig, NodeRule, ObjectRule
 from drive_bridge.ros.errors import AccessRefused
 
@@ -26,7 +26,7 @@ def _origin(rule: ObjectRule | NodeRule) -> str:
 class AccessGuard:
     """Checks one request against the bus config's ``access`` rules; raises AccessRefused."""
 
-    def __init__(self, access: AccessConfig, master: Master) -> None:
+    def __init__(self, access: AccessConfig, master: BusClient) -> None:
         self.access = access
         self.master = master
         self.configured = frozenset(node.node_id for node in master.nodes.values())

@@ -1,5 +1,6 @@
 """What one bus node does, shared by the plain and the lifecycle node: load the configuration,
-own the master (and the simulated drives), state topics, commands, services, the action."""
+start and supervise the bus process (the Master, the cycle and the simulated drives run there,
+:mod:`drive_bridge.busproc`), state topics, commands, services, the action."""
 from __future__ import annotations
 
 import dataclasses
@@ -9,12 +10,13 @@ from pathlib import Path
 from rclpy.node import Node
 
 from drive_bridge.bag.errors import BagError
-from drive_bridge.config import ConfigError, load_bus_config, parse_bus_config
-from drive_bridge.config.cycle import with_sync_period
+from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.errors import BusProcessStartError
+from drive_bridge.config import ConfigError
+from drive_bridge.config.source import ConfigSource, load
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import DriveState
 from drive_bridge.master.events import BusEvent, Level
-from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master
 from drive_bridge.model import BusConfig
 from drive_bridge.ros.callback_guard import failures_of
 from drive_bridge.ros.command_topics import CommandTopics
@@ -24,7 +26,6 @@ from drive_bridge.ros.recording import RecordControl
 from drive_bridge.ros.services import BridgeServices
 from drive_bridge.ros.state_topics import StateTopics
 from drive_bridge.ros.trajectory_action import TrajectoryAction
-from drive_bridge.streaming.executor import TrajectoryExecutor
 
 AUTO_ENABLE_TIMEOUT = 30.0
 
@@ -33,27 +34,20 @@ class StartupError(DriveBridgeError, RuntimeError):
     """The node cannot start: bad parameters or configuration (the message says what)."""
 
 
+def config_source(params: BridgeParameters) -> ConfigSource:
+    """Where the node (and its bus process) read the bus configuration."""
+    return ConfigSource(path=params.config, text=params.config_yaml, base_dir=str(Path.cwd()),
+                        sync_period=params.sync_period, simulate=params.simulate)
+
+
 def load_config(params: BridgeParameters) -> BusConfig:
     """The bus configuration from the parameters, with the sync_period override applied."""
-    if params.config_yaml:
-        import yaml
-        try:
-            data = yaml.safe_load(params.config_yaml)
-        except yaml.YAMLError as exc:
-            raise StartupError(f'parameter config_yaml is not valid YAML: {exc}') from None
-        config = parse_bus_config(data, 'parameter config_yaml', Path.cwd())
-    elif params.config:
-        config = load_bus_config(Path(params.config))
-    else:
-        raise StartupError('no bus configuration: set the parameter config (a YAML file) or config_yaml')
-    if params.sync_period > 0:  # checked as the file's own period is: window and bus budget
-        config = with_sync_period(config, params.sync_period)
-    if params.simulate and not config.simulation.enabled:
-        if config.bus.interface != 'virtual':
-            raise StartupError(f'parameter simulate needs the virtual CAN interface; the configuration '
-                               f'uses {config.bus.interface!r}')
-        config = dataclasses.replace(config, simulation=dataclasses.replace(config.simulation, enabled=True))
-    return config
+    try:
+        return load(config_source(params))
+    except ConfigError:
+        raise
+    except ValueError as exc:  # no configuration given
+        raise StartupError(str(exc)) from None
 
 
 class Bridge:
@@ -65,35 +59,24 @@ class Bridge:
         self.params = params
         self.config = config
         self._held: set[str] = set()  # joints halted by deactivation (resumed by activation)
+        self.bus_lost = threading.Event()  # the bus process is gone: the node exits (ros/main.py)
+        self._closed = False
         for warning in config.warnings:
             node.get_logger().warning(f'configuration: {warning}')
-        self.simulation = None
-        if config.simulation.enabled:
-            from drive_bridge.sim import SimulatedBus
-            self.simulation = SimulatedBus(config)
-            self.simulation.start()
         existing = _entities(node)
-        self.master = Master(config)
+        self.master = BusClient(config, config_source(params), pvt_segment=params.pvt_segment,
+                                pvt_lookahead=params.pvt_lookahead)
         self.master.add_event_listener(self._log_event)
+        self.trajectories = self.master.executor
         try:  # before the bus opens: record.start records from the first frame
             self.recording = RecordControl(node, self.master, config, config_text(params, config))
         except BagError as exc:
-            if self.simulation is not None:
-                self.simulation.stop()
             raise StartupError(str(exc)) from None
         try:
-            self.master.start()
-        except DriveBridgeError as exc:  # e.g. the interface cannot do what the configuration asks
+            ready = self.master.start()
+        except (BusProcessStartError, DriveBridgeError) as exc:  # e.g. the interface cannot do what the config asks
             self.recording.close()
-            if self.simulation is not None:
-                self.simulation.stop()
             raise StartupError(f'cannot start bus {config.bus.interface}:{config.bus.channel}: {exc}') from None
-        self.trajectories = TrajectoryExecutor(
-            self.master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
-            pvt_segment=params.pvt_segment, pvt_lookahead=params.pvt_lookahead,
-            scale_to_limits=config.trajectory.scale_to_limits)
-        self.master.add_cycle_listener(self.trajectories.check)
-        self.master.add_emcy_listener(self.trajectories.on_emcy, safety=True)
         self.state_topics = StateTopics(node, self.master, params)
         self.command_topics = CommandTopics(node, self.master, self.trajectories, params)
         self.master.add_event_listener(self.command_topics.on_event)
@@ -106,14 +89,28 @@ class Bridge:
         self.state_topics.tee = self.recording.tee
         self.state_topics.diagnostic_sources.append(self.recording.status)
         self.recording.attach()
+        self.master.add_lost_listener(self._on_bus_lost)
         self._entities = [e for e in _entities(node) if id(e) not in {id(x) for x in existing}]
         self.set_active(False)
         bus = config.bus
         sync = config.master.sync_period
         node.get_logger().info(
-            f'bus {bus.interface}:{bus.channel} open with {len(self.master.nodes)} node(s), '
-            f'{len(self.master.axes)} joint(s); SYNC {"every %.1f ms" % (sync * 1000) if sync else "off"}'
-            f'{"; simulated drives" if self.simulation else ""}')
+            f'bus {bus.interface}:{bus.channel} open with {len(config.nodes)} node(s), '
+            f'{len(self.master.axes)} joint(s); SYNC {"every %.1f ms" % (sync * 1000) if sync else "off"}; '
+            f'bus process {ready.pid}{"".join("; " + m for m in ready.messages)}')
+
+    def _on_bus_lost(self, reason: str) -> None:
+        """The bus process is gone: every joint unavailable at once, said on /diagnostics and
+        ~/axis_states, commands refused with the reason; the node then exits (ros/main.py)."""
+        if self.bus_lost.is_set():
+            return
+        self.bus_lost.set()
+        self.node.get_logger().fatal(f'{reason}: every joint is unavailable; the drives stop by their '
+                                     'heartbeat consumer; the node exits')
+        self.state_topics.on_bus_lost()
+        executor = self.node.executor
+        if executor is not None:
+            executor.wake()
 
     def set_active(self, active: bool) -> None:
         """Active: publish state and accept commands. Inactive: halt motion (HALT bit), stop
@@ -128,6 +125,8 @@ class Bridge:
             self._held.clear()
             if self.params.auto_enable:
                 threading.Thread(target=self._auto_enable, daemon=True, name='drive_bridge-auto-enable').start()
+            return
+        if self.master.lost:
             return
         self.trajectories.stop(list(self.master.axes), 'bridge deactivated', smooth=True)
         for joint, axis in self.master.axes.items():
@@ -168,13 +167,19 @@ class Bridge:
                                     + (f'; failed {", ".join(failed)}' if failed else ''))
 
     def close(self) -> None:
-        """Stop motion safely and release the bus (and the simulated drives)."""
+        """Stop motion safely and end the bus process (it releases the bus and the simulated
+        drives). Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
         self.state_topics.active = self.command_topics.active = False
-        self.trajectories.stop(list(self.master.axes), 'bridge shutting down')
-        self.master.stop()
+        if not self.master.lost:
+            try:
+                self.trajectories.stop(list(self.master.axes), 'bridge shutting down')
+            except Exception as exc:  # the bus process stops every axis at its shutdown anyway
+                self.node.get_logger().warning(f'stopping trajectories: {exc}')
+        self.master.close()
         self.recording.close()  # after the bus: the bag has every frame the tap counted
-        if self.simulation is not None:
-            self.simulation.stop()
         self.service_handlers.pool.shutdown(wait=False, cancel_futures=True)
         self.service_handlers.joint_pool.shutdown(wait=False, cancel_futures=True)
         self.trajectory_action.server.destroy()
@@ -199,17 +204,24 @@ def config_text(params: BridgeParameters, config: BusConfig) -> str | None:
 
 
 def declare_and_load(node: Node, config_path: str) -> tuple[BridgeParameters, BusConfig]:
-    """The node's validated parameters and bus configuration (StartupError says what is wrong)."""
+    """The node's validated parameters (with the command line's config path) and bus
+    configuration (StartupError says what is wrong)."""
     try:
         params = declare(node)
     except ParameterError as exc:
         raise StartupError(str(exc)) from None
-    return params, configuration(params, config_path)
+    params = with_config_path(params, config_path)
+    return params, configuration(params)
 
 
-def configuration(params: BridgeParameters, config_path: str) -> BusConfig:
+def with_config_path(params: BridgeParameters, config_path: str) -> BridgeParameters:
+    """The configuration file named on the command line, unless a parameter names one."""
     if not params.config and not params.config_yaml and config_path:
-        params = dataclasses.replace(params, config=config_path)
+        return dataclasses.replace(params, config=config_path)
+    return params
+
+
+def configuration(params: BridgeParameters) -> BusConfig:
     try:
         return load_config(params)
     except ConfigError as exc:

@@ -2,7 +2,11 @@
 and JointState (topic_based_ros2_control).
 
 A message is checked whole before anything is applied: one bad joint refuses the whole
-message, with the reason logged and published on ``~/command_errors``.
+message, with the reason logged and published on ``~/command_errors``. The structure (joint
+names, counts, numbers) is checked here; the bus process checks each joint's command against
+its mode, state and limits and refuses the whole message there (reported back the same way).
+Direct commands cross latest-value-wins, at most once per cycle per topic and joint set
+(:mod:`drive_bridge.busproc.commands`): a flood of them never floods the bus process.
 """
 from __future__ import annotations
 
@@ -16,10 +20,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.executor import ExecutorProxy
+from drive_bridge.busproc.intents import JointCommand
+from drive_bridge.busproc.proxies import HandleProxy
+from drive_bridge.errors import DriveBridgeError, RequestRefused
 from drive_bridge.joint import JointError
+from drive_bridge.joint.limits import limit_problem
 from drive_bridge.master.events import BusEvent, EventKind
-from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
 from drive_bridge.ros.message_checks import NonFinite, check_joint_commands, check_trajectory_points
 from drive_bridge.ros.message_limits import (
@@ -28,7 +36,7 @@ from drive_bridge.ros.message_limits import (
     check_trajectory_bytes,
 )
 from drive_bridge.ros.parameters import BridgeParameters
-from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
+from drive_bridge.ros.state_topics import safe_publish
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
@@ -38,7 +46,7 @@ class CommandRefused(DriveBridgeError, ValueError):
     pass
 
 
-def log_accepted(node: Node, handle: TrajectoryHandle, points: int) -> None:
+def log_accepted(node: Node, handle: HandleProxy, points: int) -> None:
     """One line per accepted trajectory, with what planning changed; what it could not check
     (a joint without a velocity limit, naming the key) as a warning."""
     notes = ''.join(f'; {note}' for note in handle.notes)
@@ -51,7 +59,7 @@ def log_accepted(node: Node, handle: TrajectoryHandle, points: int) -> None:
 class CommandTopics:
     """Subscriptions for commands; they act only while ``active``."""
 
-    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor,
+    def __init__(self, node: Node, master: BusClient, executor: ExecutorProxy,
                  params: BridgeParameters) -> None:
         self.node = node
         self.master = master
@@ -71,10 +79,12 @@ class CommandTopics:
         unknown = [j for j in self.command_joints if j not in master.axes]
         if unknown:
             raise ValueError(f'parameter command_joints names unknown joint(s) {", ".join(unknown)}')
+        master.add_refusal_listener(self.refuse)
 
     def refuse(self, topic: str, reason: str) -> None:
         text = f'{topic}: refused: {reason}'
-        self.errors.publish(String(data=text))
+        if not safe_publish(self.node, self.errors, String(data=text)):
+            return
         now = time.monotonic()
         if now - self._last_log.get(topic, 0.0) >= LOG_INTERVAL:
             self._last_log[topic] = now
@@ -86,6 +96,9 @@ class CommandTopics:
             self.errors.publish(String(data=f'cycle check: refused: {event.message}'))
 
     def _inactive(self, topic: str) -> bool:
+        if self.master.lost:
+            self.refuse(topic, self.master.lost)
+            return True
         if not self.active:
             self.refuse(topic, 'the bridge is not active (deactivated or not configured)')
         return not self.active
@@ -109,26 +122,41 @@ class CommandTopics:
         except NonFinite as exc:
             self.refuse(topic, str(exc))
             return
-        try:
-            handle = self.executor.submit(trajectory_from_msg(msg), topic)
-        except TrajectoryError as exc:
-            self.refuse(topic, str(exc).removeprefix(f'{topic}: '))
+        joints = list(msg.joint_names)
+        unknown = [j for j in joints if j not in self.master.axes]
+        if unknown:  # before the bus process spends any time on it
+            self.refuse(topic, f'unknown joint(s) {", ".join(unknown)}; this bus has {", ".join(self.master.axes)}')
             return
+        points = len(msg.points)
+        future = self.executor.submit_async(trajectory_from_msg(msg), topic)
+        future.add_done_callback(lambda done: self._submitted(topic, points, done))
+
+    def _submitted(self, topic: str, points: int, future) -> None:
+        """The bus process's answer to a trajectory (its request-lane thread)."""
+        error = future.exception()
+        if isinstance(error, (TrajectoryError, RequestRefused, TimeoutError)):
+            self.refuse(topic, str(error).removeprefix(f'{topic}: '))
+            return
+        if error is not None:
+            self.refuse(topic, f'{type(error).__name__}: {error}')
+            return
+        handle = future.result()
         if handle is not None:
-            log_accepted(self.node, handle, len(msg.points))
+            log_accepted(self.node, handle, points)
 
     # -- direct commands -------------------------------------------------------------------------
     def _apply(self, topic: str, commands: dict[str, dict[str, float | None]]) -> None:
-        """Check every joint's command, then apply all (or none)."""
+        """Check every joint's command against its limits, then send all (or none); the bus
+        process checks them again against each joint's mode and state."""
         try:
             for joint, command in commands.items():
-                self.master.axes[joint].check_command(**command)
+                problem = limit_problem(self.master.axes[joint].config.limits, **command)
+                if problem:
+                    raise JointError(f'joint {joint}: {problem}')
         except JointError as exc:
             self.refuse(topic, str(exc))
             return
-        self.executor.stop(list(commands), f'replaced by a command on {topic}')
-        for joint, command in commands.items():
-            self.master.axes[joint].command(**command)
+        self.master.commands.submit(topic, tuple(JointCommand(joint, **command) for joint, command in commands.items()))
 
     def on_commands(self, msg: Float64MultiArray) -> None:
         topic = '~/commands'

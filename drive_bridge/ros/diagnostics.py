@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
@@ -22,13 +23,15 @@ def _ms(value: float) -> str:
     return f'{value * 1000:.2f} ms'
 
 
-def bus_status(snapshot: BusSnapshot, node_name: str) -> DiagnosticStatus:
+def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '',
+               boundary: Mapping[str, object] | None = None) -> DiagnosticStatus:
     status = DiagnosticStatus(name=f'{PREFIX}: bus {snapshot.channel}', hardware_id=f'can {snapshot.channel}')
     traffic = snapshot.traffic
     values = dict(node=node_name, bus_state=snapshot.bus_state, rx_frames=traffic.rx_frames,
                   tx_frames=traffic.tx_frames, frames_per_second=f'{traffic.frames_per_second:.0f}',
                   bus_load=f'{traffic.load * 100:.1f} % (nominal, no stuff bits)')
     status.level, status.message = OK, 'bus open'
+    values.update(boundary or {})
     health = snapshot.health
     if health is not None:
         values.update(recv_errors=health.recv_errors, send_errors=health.send_errors,
@@ -42,7 +45,11 @@ def bus_status(snapshot: BusSnapshot, node_name: str) -> DiagnosticStatus:
                       cycle_errors=sync.hook_errors, late_setpoints=sync.late_setpoints)
         if sync.jitter_max > sync.period:
             status.level, status.message = WARN, f'SYNC jitter up to {_ms(sync.jitter_max)}'
-    if snapshot.bus_state not in ('ACTIVE', 'CLOSED'):
+    if lost:
+        status.level, status.message = ERROR, lost
+    elif snapshot.bus_state == 'STARTING':
+        status.level, status.message = WARN, 'bus process starting'
+    elif snapshot.bus_state not in ('ACTIVE', 'CLOSED'):
         status.level, status.message = ERROR, f'CAN controller {snapshot.bus_state}'
     status.values = _values(**values)
     return status
@@ -97,8 +104,10 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
     return status
 
 
-def diagnostics(snapshot: BusSnapshot, node_name: str) -> DiagnosticArray:
+def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '',
+                boundary: Mapping[str, object] | None = None) -> DiagnosticArray:
+    """``lost``: why the bus process is gone ('' while it runs); ``boundary``: its figures."""
     array = DiagnosticArray()
-    array.status = [bus_status(snapshot, node_name), *(node_status(n) for n in snapshot.nodes),
+    array.status = [bus_status(snapshot, node_name, lost, boundary), *(node_status(n) for n in snapshot.nodes),
                     *(axis_status(a) for a in snapshot.axes)]
     return array

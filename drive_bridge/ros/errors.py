@@ -1,11 +1,9 @@
 """Errors of the ROS layer: a client's request refused (the node keeps running)."""
 from __future__ import annotations
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.errors import RequestRefused
 
-
-class RequestRefused(DriveBridgeError):
-    """A ROS client's request refused before anything reached the bus; ``str()`` says why."""
+__all__ = ['AccessRefused', 'PoolBusy', 'RequestRefused']
 
 
 class AccessRefused(RequestRefused):

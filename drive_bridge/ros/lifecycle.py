@@ -8,9 +8,11 @@ cleanup    = quick-stop enabled axes, close the bus
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
-from drive_bridge.ros.bridge import Bridge, StartupError, configuration
+from drive_bridge.ros.bridge import Bridge, StartupError, configuration, with_config_path
 from drive_bridge.ros.callback_guard import GuardedCallbacks
 from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare, read, watch
 
@@ -23,6 +25,7 @@ class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
         self.config_path = config_path
         self.bridge: Bridge | None = None
         self.params: BridgeParameters | None = None
+        self.on_bus_started: Callable[[int], None] | None = None  # (node_nice) once a bus process runs
         try:
             self.params = declare(self)
         except ParameterError as exc:
@@ -37,16 +40,18 @@ class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
-            params = read(self)  # the values set since start count
+            params = with_config_path(read(self), self.config_path)  # the values set since start count
         except ParameterError as exc:
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
         try:
-            self.bridge = Bridge(self, params, configuration(params, self.config_path))
+            self.bridge = Bridge(self, params, configuration(params))
         except StartupError as exc:
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
         self.params = params
+        if self.on_bus_started is not None:
+            self.on_bus_started(params.node_nice)
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -79,3 +84,8 @@ class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
 
     def close(self) -> None:
         self._release()
+
+    def destroy_node(self) -> None:
+        """Destroying the node ends its bus process too (stopping the axes first)."""
+        self._release()
+        super().destroy_node()

@@ -1,7 +1,10 @@
-"""Spinning a bus node (plain or lifecycle) until Ctrl-C: what the console entry points run."""
+"""Spinning a bus node (plain or lifecycle) until Ctrl-C, or until its bus process is lost:
+what the console entry points run."""
 from __future__ import annotations
 
 import gc
+import os
+import time
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -11,8 +14,35 @@ from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 
 
+def lower_priority(increment: int) -> None:
+    """Once the bus process runs: this (node) process yields the CPU to it (nice + increment), so
+    the SYNC cycle runs first when a client floods the node. On Linux the nice value is a
+    thread's: every thread of this process is lowered (DDS's, rclpy's, the bus client's readers),
+    and threads started later inherit it. The bus process keeps its own priority (it was
+    started before). Applied once per process."""
+    global _reniced
+    if increment <= 0 or _reniced:
+        return
+    _reniced = True
+    failed = []
+    for task in os.listdir('/proc/self/task') if os.path.isdir('/proc/self/task') else [str(os.getpid())]:
+        try:
+            tid = int(task)
+            os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + increment))
+        except (OSError, ValueError) as exc:  # a thread that ended meanwhile, or not allowed
+            failed.append(f'{task}: {exc}')
+    if failed:
+        rclpy.logging.get_logger('drive_bridge').warning(f'node_nice {increment}: {"; ".join(failed[:3])}')
+
+
+_reniced = False
+EXIT_BUS_LOST = 3  # the bus process ended without being asked (killed, crashed)
+BUS_LOST_LINGER = 1.0  # s the node keeps answering (refusing, with the reason) before it exits
+
+
 def run(config_path: str, args: list[str], managed: bool = False) -> int:
-    """Spin a bus node (or its lifecycle variant) until Ctrl-C; returns the exit code."""
+    """Spin a bus node (or its lifecycle variant) until Ctrl-C (exit 0) or until its bus
+    process is lost (exit 3); a node that cannot start exits 2."""
     rclpy.init(args=args)
     try:
         node: BusNode | BusLifecycleNode = BusLifecycleNode(config_path) if managed else BusNode(config_path)
@@ -20,14 +50,26 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
         rclpy.logging.get_logger('drive_bridge').fatal(str(exc))
         rclpy.try_shutdown()
         return 2
-    # Start-up objects never become garbage: keep full collections from walking them, which
-    # would stall the SYNC cycle thread (the GIL is held while the collector runs).
+    if isinstance(node, BusLifecycleNode):  # its bus process starts at configure
+        node.on_bus_started = lower_priority
+    else:
+        lower_priority(node.params.node_nice)
+    # Start-up objects never become garbage: keep full collections from walking them.
     gc.collect()
     gc.freeze()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    code = 0
+    lost_at = 0.0
     try:
-        executor.spin()
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+            bridge = node.bridge
+            if bridge is not None and bridge.bus_lost.is_set():
+                lost_at = lost_at or time.monotonic()
+                if time.monotonic() - lost_at >= BUS_LOST_LINGER:  # /diagnostics said it; refusals named it
+                    code = EXIT_BUS_LOST
+                    break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
@@ -35,4 +77,4 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return code

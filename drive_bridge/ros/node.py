@@ -3,11 +3,11 @@ from __future__ import annotations
 
 from rclpy.node import Node
 
-from drive_bridge.master.master import Master
+from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.executor import ExecutorProxy
 from drive_bridge.ros.bridge import Bridge, StartupError, declare_and_load
 from drive_bridge.ros.callback_guard import GuardedCallbacks
 from drive_bridge.ros.parameters import BridgeParameters, watch
-from drive_bridge.streaming.executor import TrajectoryExecutor
 
 __all__ = ['BusNode', 'StartupError']
 
@@ -27,16 +27,18 @@ class BusNode(GuardedCallbacks, Node):
         self.bridge.apply_parameters(params)
 
     @property
-    def master(self) -> Master:
+    def master(self) -> BusClient:
+        """The bus process's client (the Master's API, across the boundary)."""
         return self.bridge.master
 
     @property
-    def simulation(self):
-        return self.bridge.simulation
-
-    @property
-    def trajectories(self) -> TrajectoryExecutor:
+    def trajectories(self) -> ExecutorProxy:
         return self.bridge.trajectories
 
     def close(self) -> None:
         self.bridge.close()
+
+    def destroy_node(self) -> None:
+        """Destroying the node ends its bus process too (stopping the axes first)."""
+        self.bridge.close()
+        super().destroy_node()

@@ -22,8 +22,8 @@ from drive_bridge_interfaces.srv import ParamRead, ParamSave, ParamWrite
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
-from drive_bridge.master.master import Master
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.errors import RequestRefused
 from drive_bridge.ros.pool import BoundedPool, in_pool
@@ -36,7 +36,7 @@ class ParameterServices:
     """Registers the three services on ``node``; ``pool``: the thread pool to run them in
     (default: one of its own, shut down by :meth:`close`)."""
 
-    def __init__(self, node: Node, master: Master,
+    def __init__(self, node: Node, master: BusClient,
                  pool: concurrent.futures.ThreadPoolExecutor | None = None) -> None:
         self.node = node
         self.master = master
@@ -90,7 +90,7 @@ class ParameterServices:
             return action(access)
         try:
             result = await self._in_pool(work)
-        except (ParameterError, RequestRefused) as exc:
+        except (ParameterError, RequestRefused, TimeoutError) as exc:
             response.success, response.message = False, prefix + str(exc)
             return None
         except Exception as exc:  # a family's bug must still answer, and say what happened

@@ -42,6 +42,7 @@ class BridgeParameters:
     auto_enable: bool = False
     pvt_segment: float = 0.01
     pvt_lookahead: float = 0.05
+    node_nice: int = 10
 
 
 DESCRIPTIONS = {
@@ -62,6 +63,8 @@ DESCRIPTIONS = {
     'auto_enable': 'enable every axis once its node is operational',
     'pvt_segment': 'seconds between PVT points (a whole number of ms)',
     'pvt_lookahead': 'seconds of PVT points kept ahead in the drive buffer',
+    'node_nice': ('niceness the node process adds to itself once its bus process runs (0..19; bridge and '
+                  'bridge_managed only): the SYNC cycle gets the CPU before what clients make the node do'),
 }
 
 
@@ -80,6 +83,7 @@ RANGES: dict[str, tuple[float, float, bool]] = {
     'pvt_segment': (0.001, 1.0, False),  # s, a whole number of ms
     'pvt_lookahead': (0.001, 5.0, False),  # s, >= pvt_segment
     'qos_depth': (1, 10000, False),
+    'node_nice': (0, 19, True),
 }
 MAX_STATE_RATE = RANGES['state_rate'][1]  # Hz
 MIN_DIAGNOSTICS_PERIOD = RANGES['diagnostics_period'][0]  # s

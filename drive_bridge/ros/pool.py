@@ -68,3 +68,21 @@ async def in_pool(node: Node, pool: concurrent.futures.ThreadPoolExecutor, work:
             executor.wake()
     pool.submit(run)
     return await future  # type: ignore[no-any-return]
+
+
+async def await_future(node: Node, future: concurrent.futures.Future[T]) -> T:
+    """Await a concurrent future (e.g. an answer from the bus process) in a coroutine handler
+    without blocking the node's executor, which is woken when the future is done."""
+    awaited: rclpy.task.Future = rclpy.task.Future()
+
+    def done(finished: concurrent.futures.Future[T]) -> None:
+        error = finished.exception()
+        if error is not None:
+            awaited.set_exception(error)
+        else:
+            awaited.set_result(finished.result())
+        executor = node.executor
+        if executor is not None:
+            executor.wake()
+    future.add_done_callback(done)
+    return await awaited  # type: ignore[no-any-return]

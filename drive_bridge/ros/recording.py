@@ -26,8 +26,8 @@ from std_srvs.srv import SetBool
 
 from drive_bridge.bag.errors import BagError
 from drive_bridge.bag.recorder import Recorder, RecorderStats, config_files
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.master.events import BusEvent, Level
-from drive_bridge.master.master import Master
 from drive_bridge.model import BusConfig, RecordConfig
 from drive_bridge.ros.diagnostics import PREFIX, _values
 
@@ -103,7 +103,7 @@ def stamp_ns(msg: Any) -> int:
 class RecordControl:
     """Starts and stops the recorder of one bus node."""
 
-    def __init__(self, node: Node, master: Master, config: BusConfig, config_text: str | None) -> None:
+    def __init__(self, node: Node, master: BusClient, config: BusConfig, config_text: str | None) -> None:
         self.node = node
         self.master = master
         self.config = config
@@ -152,9 +152,11 @@ class RecordControl:
         while path.exists():
             path, suffix = base / f'{name}_{suffix}', suffix + 1
         split_bytes = round(self.params.split_size_mb * 1e6) or None
+        since = self.master.frame_drops  # the boundary's count: this recording's share from now
         self.recorder = Recorder(path, channel=channel, split_bytes=split_bytes,
                                  split_seconds=self.params.split_seconds or None, config_yaml=self.config_text,
-                                 files=config_files(self.config))
+                                 files=config_files(self.config),
+                                 upstream_drops=lambda: self.master.frame_drops - since)
         self._listener = self.recorder.on_frame
         self.master.add_frame_listener(self._listener)
         self.node.get_logger().info(f'recording to {path}')
@@ -164,7 +166,7 @@ class RecordControl:
         recorder = self.recorder
         if recorder is None:
             raise BagError('not recording')
-        self.master.tap.remove_listener(self._listener)
+        self.master.remove_frame_listener(self._listener)
         self.recorder = self._listener = None
         self.last = stats = recorder.stop()
         self.node.get_logger().info(f'recording stopped: {stats.summary()}')
@@ -213,12 +215,15 @@ class RecordControl:
             return status
         recording = self.recorder is not None
         status.values = _values(recording=recording, path=stats.path, frames=stats.frames, messages=stats.messages,
-                                dropped=stats.dropped, queued=stats.queued, bytes=stats.bytes, split=stats.split,
+                                dropped=stats.dropped, dropped_upstream=stats.dropped_upstream, queued=stats.queued,
+                                bytes=stats.bytes, split=stats.split,
                                 closed_splits=stats.splits, error=stats.error)
         if stats.error:
             status.level, status.message = DiagnosticStatus.ERROR, f'recording failed: {stats.error}'
-        elif stats.dropped:
-            status.level, status.message = DiagnosticStatus.WARN, f'{stats.dropped} frames/messages dropped'
+        elif stats.dropped or stats.dropped_upstream:
+            status.level, status.message = DiagnosticStatus.WARN, (
+                f'{stats.dropped + stats.dropped_upstream} frames/messages dropped '
+                f'({stats.dropped_upstream} before the recorder, in the bus process)')
         else:
             status.level = DiagnosticStatus.OK
             status.message = f'recording to {stats.path}' if recording else f'stopped; last bag {stats.path}'

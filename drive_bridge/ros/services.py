@@ -6,7 +6,8 @@ a refusal answers ``success = False`` with the rule that refused it in ``message
 Handlers wait on the bus (SDO round trips, state transitions), so they run in a thread
 pool and the executor stays free: each handler is a coroutine awaiting the pool's
 result, in a callback group of its own (the default group would stall the node's timers
-while a handler waits).
+while a handler waits). ``~/quick_stop``, ``~/halt`` and ``~/disable`` never enter that pool:
+they await the bus process's stop lane directly, so no other call can hold them up.
 """
 from __future__ import annotations
 
@@ -20,22 +21,27 @@ from drive_bridge_interfaces.srv import AxisCommand, NmtCommand, SdoRead, SdoWri
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
+from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.executor import ExecutorProxy
+from drive_bridge.busproc.intents import Stop, StopName
+from drive_bridge.busproc.proxies import AxisProxy
 from drive_bridge.cia301.nmt import NMT_COMMANDS
-from drive_bridge.joint import JointDriver, JointError
-from drive_bridge.master.master import Master
+from drive_bridge.joint import JointError
 from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
 from drive_bridge.ros.errors import RequestRefused
 from drive_bridge.ros.message_checks import check_float
-from drive_bridge.ros.pool import BoundedPool, in_pool
-from drive_bridge.streaming.executor import TrajectoryExecutor
+from drive_bridge.ros.pool import BoundedPool, await_future, in_pool
 
 T = TypeVar('T')
 SERVICE_WORKERS = 8
 # requests running or waiting at once (all services of the node); more are refused at once
 MAX_PENDING_REQUESTS = 32
-AxisAction = Callable[[JointDriver, float | None], str | None]
+AxisAction = Callable[[AxisProxy, float | None], str | None]
+# on the stop lane (service name -> the stop and the reason its trajectories end with)
+STOPS: dict[str, tuple[StopName, str]] = {'quick_stop': ('quick_stop', 'quick stop'), 'halt': ('halt', 'halted'),
+                                          'disable': ('disable', 'disabled')}
 # the longest wait a request's ``timeout`` may ask for (s): a worker blocked longer serves no one
 MAX_TIMEOUT = 30.0
 MAX_HOMING_TIMEOUT = 300.0  # a homing run crosses the whole axis at search speed
@@ -52,7 +58,7 @@ def request_timeout(service: str, value: float) -> float | None:
 
 
 class BridgeServices:
-    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor) -> None:
+    def __init__(self, node: Node, master: BusClient, executor: ExecutorProxy) -> None:
         self.node = node
         self.master = master
         self.executor = executor
@@ -67,13 +73,14 @@ class BridgeServices:
         node.create_service(SdoWrite, '~/sdo_write', self.sdo_write, callback_group=group)
         node.create_service(NmtCommand, '~/nmt', self.nmt, callback_group=group)
         actions: dict[str, AxisAction] = {
-            'enable': self._enable, 'disable': lambda a, t: a.disable(t),
-            'halt': self._halt, 'resume': lambda a, t: a.halt(False),
-            'quick_stop': self._quick_stop, 'fault_reset': lambda a, t: a.reset_fault(t),
-            'recover': self._recover, 'home': lambda a, t: a.home(t),
+            'enable': self._enable, 'resume': lambda a, t: a.halt(False),
+            'fault_reset': lambda a, t: a.reset_fault(t), 'recover': self._recover, 'home': lambda a, t: a.home(t),
         }
         for name, action in actions.items():
             node.create_service(AxisCommand, f'~/{name}', self._axis_handler(name, action), callback_group=group)
+        for name in STOPS:  # a group of their own: never behind the others' callbacks
+            node.create_service(AxisCommand, f'~/{name}', self._stop_handler(name),
+                                callback_group=ReentrantCallbackGroup())
         node.create_service(SetMode, '~/set_mode', self.set_mode, callback_group=group)
 
     async def _in_pool(self, work: Callable[[], T]) -> T:
@@ -119,7 +126,7 @@ class BridgeServices:
             response.success = True
         except SdoError as exc:
             response.success, response.abort_code, response.message = False, exc.abort_code, str(exc)
-        except (ValueError, RequestRefused) as exc:
+        except (ValueError, RequestRefused, TimeoutError) as exc:
             response.success, response.message = False, str(exc)
         return response
 
@@ -129,7 +136,7 @@ class BridgeServices:
             self.master.nmt(request.command, request.node_id)
         try:  # in the pool: a command leaving OPERATIONAL first stops the node's axes (blocking)
             await self._in_pool(work)
-        except (ValueError, RequestRefused) as exc:
+        except (ValueError, RequestRefused, TimeoutError) as exc:
             response.success, response.message = False, str(exc)
             return response
         target = 'all nodes' if request.node_id == 0 else f'node {request.node_id}'
@@ -144,20 +151,36 @@ class BridgeServices:
             raise JointError(f'unknown joint(s) {", ".join(unknown)}; this bus has {", ".join(self.master.axes)}')
         return list(names) or list(self.master.axes)
 
-    def _enable(self, axis: JointDriver, timeout: float | None) -> None:
+    def _enable(self, axis: AxisProxy, timeout: float | None) -> None:
         if not self.active:
             raise JointError('the bridge is deactivated: activate it before enabling axes')
         axis.enable(timeout)
 
-    def _halt(self, axis: JointDriver, timeout: float | None) -> None:
-        self.executor.stop([axis.joint], 'halted')
-        axis.halt(True)
+    def _stop_handler(self, name: str):
+        action, reason = STOPS[name]
 
-    def _quick_stop(self, axis: JointDriver, timeout: float | None) -> None:
-        self.executor.stop([axis.joint], 'quick stop')
-        axis.quick_stop(timeout)
+        async def handle(request: AxisCommand.Request, response: AxisCommand.Response) -> AxisCommand.Response:
+            try:
+                names = self._joints(list(request.joints))
+            except JointError as exc:
+                response.success, response.message, response.failed = False, str(exc), list(request.joints)
+                return response
+            try:
+                timeout = request_timeout(name, request.timeout)
+                outcome = await await_future(self.node, self.master.stop(Stop(tuple(names), action, reason,
+                                                                             timeout=timeout)))
+            except (RequestRefused, TimeoutError) as exc:
+                response.success, response.message, response.failed = False, str(exc), names
+                return response
+            assert isinstance(outcome, dict)
+            failed = [j for j in names if outcome.get(j)]
+            response.success, response.failed = not failed, failed
+            done = f'{name}: done for {", ".join(names)}'
+            response.message = '; '.join(outcome[j] for j in failed) if failed else done
+            return response
+        return handle
 
-    def _recover(self, axis: JointDriver, timeout: float | None) -> None:
+    def _recover(self, axis: AxisProxy, timeout: float | None) -> None:
         axis.reset_fault(timeout)
         self._enable(axis, timeout)
 
@@ -183,12 +206,12 @@ class BridgeServices:
             response.success, response.message, response.failed = False, str(exc), list(request.joints)
             return response
 
-        def change(axis: JointDriver) -> None:
+        def change(axis: AxisProxy) -> None:
             self.executor.stop([axis.joint], 'mode change')
             axis.set_mode(mode, timeout)
         return await self._for_joints(f'set_mode {request.mode}', list(request.joints), change, response)
 
-    async def _for_joints(self, name: str, joints: list[str], action: Callable[[JointDriver], object],
+    async def _for_joints(self, name: str, joints: list[str], action: Callable[[AxisProxy], object],
                           response: Any) -> Any:
         """Run an action on each joint in parallel; report every joint's outcome."""
         try:
@@ -200,7 +223,7 @@ class BridgeServices:
         def one(joint: str) -> str | None:
             try:
                 action(self.master.axes[joint])
-            except (JointError, SdoError, ValueError) as exc:
+            except (JointError, SdoError, ValueError, RequestRefused, TimeoutError) as exc:
                 return str(exc)
             return None
 

@@ -1,10 +1,11 @@
 """State the node publishes: joint states, axis states, EMCY, CAN frames, diagnostics.
 
-Joint states are published from the CAN thread as soon as the drives' synchronous TPDOs
-answering a SYNC are all in (the cycle thread publishes them at the next SYNC only when
-some did not come); EMCY and frames from the CAN threads too: rclpy's publish is thread-safe and cheap (about 8 µs with
-no subscriber, docs/python-ecosystem.md §6). Frame messages are only built while
-someone subscribes.
+Joint states are published from the bus client's state-lane thread as soon as the bus process
+sends a cycle's state (once the drives' synchronous TPDOs answering a SYNC are all in, or at
+the next SYNC when some did not come); EMCY and frames from its request-lane thread: rclpy's
+publish is thread-safe and cheap (about 8 µs with no subscriber, docs/python-ecosystem.md §6).
+Frames cross from the bus process only while ``~/can_frames`` has a subscriber (or a recording
+runs).
 """
 from __future__ import annotations
 
@@ -20,12 +21,25 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.cia301.emcy import EmcyEvent, Severity
-from drive_bridge.master.master import Master
 from drive_bridge.ros.conversions import axis_state_msg, emcy_msg
 from drive_bridge.ros.diagnostics import diagnostics
 from drive_bridge.ros.frames import stamp_from_seconds, to_frame_msg
 from drive_bridge.ros.parameters import BridgeParameters
+
+
+def safe_publish(node: Node, publisher: Any, msg: Any) -> bool:
+    """Publish from one of the bus client's threads; False (nothing raised) once the node's
+    context is shut down (a signal ends rclpy before the node is closed), so the last reports
+    of a stopping bus process are dropped quietly instead of failing in every listener."""
+    try:
+        publisher.publish(msg)
+    except Exception:
+        if node.context.ok():
+            raise
+        return False
+    return True
 
 
 def state_qos(params: BridgeParameters) -> QoSProfile:
@@ -37,7 +51,7 @@ def state_qos(params: BridgeParameters) -> QoSProfile:
 class StateTopics:
     """Publishers of one bus node; :meth:`attach` starts feeding them from the master."""
 
-    def __init__(self, node: Node, master: Master, params: BridgeParameters) -> None:
+    def __init__(self, node: Node, master: BusClient, params: BridgeParameters) -> None:
         self.node = node
         self.master = master
         self.params = params
@@ -53,8 +67,8 @@ class StateTopics:
         self._joint_of_node = {n.node_id: {a.slot: a.joint for a in n.config.axes} for n in master.nodes.values()}
         self._min_interval = 1.0 / params.publish_rate if params.publish_rate > 0 else 0.0
         self._last_joint_states = 0.0
-        self._published_on_feedback = False
         self._frame_subscribers = 0
+        self._forwarding_frames = False
         self._last_states: tuple = ()
         self._unavailable: set[str] = set()
         self._seen: set[str] = set()  # joints published at least once
@@ -66,18 +80,16 @@ class StateTopics:
         self.diagnostic_sources: list[Callable[[], DiagnosticStatus]] = []
 
     def _publish(self, publisher: Any, msg: Any) -> None:
-        publisher.publish(msg)
+        if not safe_publish(self.node, publisher, msg):
+            return
         tee = self.tee
         if tee is not None:
             tee(publisher.topic_name, msg)
 
     def attach(self) -> None:
-        """Register with the master and start the timers."""
-        self.master.add_cycle_listener(self.on_cycle)
+        """Register with the bus client and start the timers."""
         self.master.add_feedback_listener(self.on_feedback)
         self.master.add_emcy_listener(self.on_emcy)
-        if self.params.publish_frames:
-            self.master.add_frame_listener(self.on_frame)
         self.node.create_timer(0.5, self._count_frame_subscribers)
         # always created (cancelled while state_rate is 0), so apply() can change the rates
         self._axis_timer = self.node.create_timer(1.0 / (self.params.state_rate or 1.0),
@@ -98,16 +110,14 @@ class StateTopics:
         self._diagnostics_timer.timer_period_ns = round(params.diagnostics_period * 1e9)
         self._diagnostics_timer.reset()
 
-    # -- joint states (CAN thread, or the cycle thread when feedback is missing) ------------------
+    # -- joint states (the bus client's state-lane thread) -------------------------------------------
     def on_feedback(self) -> None:
-        self._published_on_feedback = True
         self._publish_states()
 
-    def on_cycle(self, _cycle: int) -> None:
-        if self._published_on_feedback:  # the last cycle's TPDOs came and were published
-            self._published_on_feedback = False
-            return
-        self._publish_states()
+    def on_bus_lost(self) -> None:
+        """Every joint unavailable now: say so on ~/axis_states and /diagnostics at once."""
+        self.publish_axis_states(force=True)
+        self.publish_diagnostics()
 
     def _publish_states(self) -> None:
         if not self.active:
@@ -191,15 +201,25 @@ class StateTopics:
             self.node.get_logger().error(str(event))
 
     def _count_frame_subscribers(self) -> None:
+        """Frames cross from the bus process only while someone subscribes ~/can_frames."""
         self._frame_subscribers = self.frames.get_subscription_count()
+        wanted = bool(self._frame_subscribers) and self.params.publish_frames
+        if wanted and not self._forwarding_frames:
+            self.master.add_frame_listener(self.on_frame)
+        elif not wanted and self._forwarding_frames:
+            self.master.remove_frame_listener(self.on_frame)
+        self._forwarding_frames = wanted
 
     def on_frame(self, msg: can.Message) -> None:
         if self._frame_subscribers:
-            self.frames.publish(to_frame_msg(msg, self._channel))
+            safe_publish(self.node, self.frames, to_frame_msg(msg, self._channel))
 
     # -- diagnostics (executor) ------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
-        array = diagnostics(self.master.snapshot(), self.node.get_fully_qualified_name())
+        client = self.master
+        boundary = {'bus_process': client.pid, 'frames_dropped_at_boundary': client.frame_drops,
+                    'cyclic_states_dropped': client.state_drops, 'commands_coalesced': client.commands.coalesced}
+        array = diagnostics(client.snapshot(), self.node.get_fully_qualified_name(), client.lost, boundary)
         array.status.extend(source() for source in self.diagnostic_sources)
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._publish(self.diagnostics, array)

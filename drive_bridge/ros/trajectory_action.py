@@ -22,7 +22,10 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from drive_bridge.master.master import Master
+from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.executor import ExecutorProxy
+from drive_bridge.busproc.proxies import HandleProxy
+from drive_bridge.errors import RequestRefused
 from drive_bridge.ros.callback_guard import failures_of, guard_execute, guard_goal
 from drive_bridge.ros.command_topics import log_accepted
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
@@ -30,7 +33,7 @@ from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.goal_checks import GoalRefused, check_goal, tolerances
 from drive_bridge.ros.message_checks import NonFinite, check_trajectory_points
 from drive_bridge.ros.message_limits import MessageTooLarge, check_trajectory_size
-from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
+from drive_bridge.ros.pool import await_future
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 FEEDBACK_PERIOD = 0.05
@@ -39,7 +42,7 @@ Result = FollowJointTrajectory.Result
 
 
 class TrajectoryAction:
-    def __init__(self, node: Node, master: Master, executor: TrajectoryExecutor) -> None:
+    def __init__(self, node: Node, master: BusClient, executor: ExecutorProxy) -> None:
         self.node = node
         self.master = master
         self.executor = executor
@@ -93,12 +96,16 @@ class TrajectoryAction:
             goal.abort()
             text = f'unknown joint(s) {", ".join(unknown)}' if unknown else 'no joint_names'
             return self._result(Result.INVALID_JOINTS, text)
-        try:
-            handle = self.executor.submit(trajectory_from_msg(request.trajectory), '~/follow_joint_trajectory')
+        try:  # validated in the bus process; the executor keeps spinning meanwhile
+            handle = await await_future(self.node, self.executor.submit_async(
+                trajectory_from_msg(request.trajectory), '~/follow_joint_trajectory'))
         except TrajectoryError as exc:
             goal.abort()
             code = Result.OLD_HEADER_TIMESTAMP if 'in the past' in str(exc) else Result.INVALID_GOAL
             return self._result(code, str(exc))
+        except (RequestRefused, TimeoutError) as exc:
+            goal.abort()
+            return self._result(Result.INVALID_GOAL, str(exc))
         if handle is None:  # an empty trajectory: a stop request, done
             goal.succeed()
             return self._result(Result.SUCCESSFUL, 'empty trajectory: joints stopped')
@@ -108,7 +115,7 @@ class TrajectoryAction:
             self.node.get_logger().info('follow_joint_trajectory: a new goal replaces the running one')
         return await self._follow(goal, handle, joints)
 
-    async def _follow(self, goal: ServerGoalHandle, handle: TrajectoryHandle,
+    async def _follow(self, goal: ServerGoalHandle, handle: HandleProxy,
                       joints: list[str]) -> FollowJointTrajectory.Result:
         request = goal.request
         path = {f: tolerances(request.path_tolerance, joints, f) for f in ('position', 'velocity')}

@@ -1,0 +1,217 @@
+"""The two processes of a bus node, each killed while the joints move (issue 19's failure
+semantics), watched from the bus and through ROS.
+
+The node process (``bridge``) runs as a process of its own with its bus process as its child;
+the simulated drives run in this test's process on the ``local`` bus, where a sniffer records
+every controlword the bridge sends.
+
+- The node process killed (SIGKILL): its bus process brings every enabled axis to a quick stop
+  at once, and once at rest disables it (``on_node_loss: disable``) or holds it in quick stop
+  active (``hold``); nothing is enabled again.
+- The bus process killed: the node reports every joint unavailable and an ERROR on
+  /diagnostics, refuses commands with that reason, and exits with code 3.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import psutil
+import pytest
+import yaml
+from builtin_interfaces.msg import Duration
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from drive_bridge_interfaces.msg import AxisStates
+from std_msgs.msg import Float64MultiArray, String
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from bridgetools import local_data, simulated
+from bustools import demo_data
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.master.bus import open_bus
+from rostools import RosHarness, wait_for
+
+REPO = Path(__file__).resolve().parent.parent
+NS = '/drive_bridge'
+RPDO1 = {2: 0x202, 3: 0x203, 4: 0x204}  # controlword of axis 0 (node 3's second axis: RPDO3)
+RPDO3_ARM = 0x403
+QUICK_STOP_MASK, QUICK_STOP = 0x0087, 0x0002  # controlword "quick stop": bit 1 set, bits 0, 2, 7 clear
+ENABLE_MASK, ENABLE_OPERATION = 0x008F, 0x000F
+
+
+class Sniffer:
+    """Every frame on the local bus with its arrival time (monotonic)."""
+
+    def __init__(self, channel: str) -> None:
+        self.bus = open_bus('local', channel)
+        self.frames: list[tuple[float, int, bytes]] = []
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop:
+            msg = self.bus.recv(0.05)
+            if msg is not None:
+                self.frames.append((time.monotonic(), msg.arbitration_id, bytes(msg.data)))
+
+    def controlwords(self, cob_id: int, since: float) -> list[tuple[float, int]]:
+        return [(t, int.from_bytes(d[:2], 'little')) for t, c, d in list(self.frames) if c == cob_id and t >= since]
+
+    def close(self) -> None:
+        self._stop = True
+        self._thread.join(2)
+        self.bus.shutdown()
+
+
+@contextmanager
+def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subprocess.Popen[str], Any, Sniffer]]:
+    """The node process (with its bus process) on a local bus, the simulated drives here."""
+    data = local_data(data)
+    sim = simulated(data)
+    sniffer = Sniffer(data['bus']['channel'])
+    bridge_data = {**data, 'simulation': {'enabled': False}}
+    config = tmp_path / 'bus.yaml'
+    config.write_text(yaml.safe_dump(bridge_data, sort_keys=False))
+    env = {**os.environ, 'PYTHONPATH': str(REPO)}
+    bridge = subprocess.Popen([sys.executable, '-c', 'from drive_bridge.cli.bridge import bridge_main; bridge_main()',
+                               str(config), '--ros-args', '-p', 'auto_enable:=true'],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        yield bridge, sim, sniffer
+    finally:
+        for process in [*bus_processes(bridge), *_seen.pop(bridge.pid, [])]:
+            try:
+                process.kill()  # a bus process that holds an axis runs until told (here: killed)
+            except psutil.NoSuchProcess:
+                pass
+        if bridge.poll() is None:
+            bridge.kill()
+        bridge.wait(10)
+        sniffer.close()
+        sim.stop()
+
+
+_seen: dict[int, list[psutil.Process]] = {}
+
+
+def bus_processes(bridge: subprocess.Popen[str]) -> list[psutil.Process]:
+    """The bridge's bus process(es), remembered: once the bridge is gone they are no one's children."""
+    try:
+        found = [p for p in psutil.Process(bridge.pid).children() if 'drive_bridge.busproc' in ' '.join(p.cmdline())]
+    except psutil.NoSuchProcess:
+        return []
+    _seen.setdefault(bridge.pid, []).extend(p for p in found if p not in _seen.get(bridge.pid, []))
+    return found
+
+
+def enabled_and_moving(ros: RosHarness, sim: Any) -> None:
+    """Every axis enabled by auto_enable, then a slow trajectory on every joint."""
+    axes: list[AxisStates] = []
+    ros.node('fail_axes').create_subscription(AxisStates, f'{NS}/axis_states', axes.append, 10)
+    wait_for(lambda: axes and len(axes[-1].axes) == 4 and all(a.drive_state == a.DRIVE_ENABLED for a in axes[-1].axes),
+             40, 'every axis enabled by auto_enable')
+    joints = [a.joint_name for a in axes[-1].axes]
+    node = ros.node('fail_traj')
+    publisher = node.create_publisher(JointTrajectory, f'{NS}/joint_trajectory', 10)
+    errors: list[String] = []
+    node.create_subscription(String, f'{NS}/command_errors', errors.append, 10)
+    wait_for(lambda: publisher.get_subscription_count(), 10, 'the bridge subscribed')
+    here = {2: sim.drive(2).axis(0).position}
+    publisher.publish(JointTrajectory(joint_names=joints, points=[JointTrajectoryPoint(
+        positions=[0.8, 0.5, -0.5, 0.2], time_from_start=Duration(sec=6))]))
+    wait_for(lambda: abs(sim.drive(2).axis(0).position - here[2]) > 2000, 10,
+             f'base_joint moving (command errors: {[e.data for e in errors]})')
+
+
+def test_the_node_killed_its_bus_process_quick_stops_every_axis_then_disables_or_holds(
+        ros: RosHarness, tmp_path: Path) -> None:
+    data = demo_data()
+    # lift: holds in quick stop active (a vertical axis); the drive stays there at rest (0x605A = 6)
+    lift = data['nodes']['lift_drive']
+    lift['axes'][0]['on_node_loss'] = {'action': 'hold'}
+    lift['sdo'] = [{'index': 0x605A, 'sub_index': 0, 'value': 6}]
+    # base: disabled after the brake delay, from quick stop active (the drive stays there too)
+    base = data['nodes']['base_drive']
+    base['axes'][0]['on_node_loss'] = {'action': 'disable', 'brake_delay': 0.1}
+    base['sdo'] = [{'index': 0x605A, 'sub_index': 0, 'value': 6}]
+    with bridge_process(tmp_path, data) as (bridge, sim, sniffer):
+        enabled_and_moving(ros, sim)
+        bus, = bus_processes(bridge)
+        os.kill(bridge.pid, signal.SIGKILL)
+        killed = time.monotonic()
+        bridge.wait(5)
+
+        def stopped(cob_id: int) -> float | None:
+            return next((t for t, cw in sniffer.controlwords(cob_id, killed)
+                         if cw & QUICK_STOP_MASK == QUICK_STOP), None)
+        wait_for(lambda: all(stopped(c) for c in (*RPDO1.values(), RPDO3_ARM)), 2,
+                 'a quick-stop controlword to every axis')
+        assert max(stopped(c) for c in (*RPDO1.values(), RPDO3_ARM)) - killed < 1.0  # goal 0.1 s: bench
+        # base: quick stop active, at rest, then disabled; never enabled again
+        wait_for(lambda: sim.drive(2).axis(0).state is State.SWITCHED_ON, 5, 'base_joint disabled')
+        base_words = sniffer.controlwords(RPDO1[2], stopped(RPDO1[2]) or killed)
+        assert not [cw for _, cw in base_words if cw & ENABLE_MASK == ENABLE_OPERATION]
+        # lift: held in quick stop active, at rest, with the bus alive (its heartbeat consumer content)
+        assert sim.drive(4).axis(0).state is State.QUICK_STOP_ACTIVE
+        held = sim.drive(4).axis(0).position
+        time.sleep(0.5)
+        assert sim.drive(4).axis(0).state is State.QUICK_STOP_ACTIVE and sim.drive(4).axis(0).position == held
+        assert bus.is_running()
+        # the others (option code 2): disabled, by the drive itself at the end of its quick stop or
+        # by the bridge once at rest; never enabled again
+        for node_id, slot, cob_id in ((3, 0, RPDO1[3]), (3, 1, RPDO3_ARM)):
+            wait_for(lambda: sim.drive(node_id).axis(slot).state in (State.SWITCH_ON_DISABLED, State.SWITCHED_ON),
+                     5, f'node {node_id} axis {slot} disabled ({sim.drive(node_id).axis(slot).state})')
+            words = sniffer.controlwords(cob_id, stopped(cob_id) or killed)
+            assert not [cw for _, cw in words if cw & ENABLE_MASK == ENABLE_OPERATION]
+        bus.send_signal(signal.SIGTERM)  # ends the hold: the bus process releases the bus
+        bus.wait(10)  # ended (its exit code goes to whoever adopted it)
+        assert not bus.is_running()
+
+
+def test_the_bus_process_killed_the_node_reports_every_joint_unavailable_and_exits(
+        ros: RosHarness, tmp_path: Path) -> None:
+    with bridge_process(tmp_path, demo_data()) as (bridge, sim, _sniffer):
+        enabled_and_moving(ros, sim)
+        diagnostics: list[DiagnosticArray] = []
+        ros.node('fail_diag').create_subscription(DiagnosticArray, '/diagnostics', diagnostics.append, 50)
+        axes: list[AxisStates] = []
+        ros.node('fail_axes2').create_subscription(AxisStates, f'{NS}/axis_states', axes.append, 50)
+        errors: list[String] = []
+        ros.node('fail_errors').create_subscription(String, f'{NS}/command_errors', errors.append, 50)
+        commands = ros.node('fail_cmd').create_publisher(Float64MultiArray, f'{NS}/commands', 10)
+        wait_for(lambda: diagnostics, 10, 'diagnostics')
+        bus, = bus_processes(bridge)
+        bus.kill()
+        killed = time.monotonic()
+
+        def bus_error() -> DiagnosticStatus | None:
+            return next((s for array in list(diagnostics) for s in array.status
+                         if s.name.startswith('drive_bridge: bus') and s.level == DiagnosticStatus.ERROR), None)
+        status = wait_for(bus_error, 5, 'an ERROR on /diagnostics')
+        assert time.monotonic() - killed < 1.0  # goal 0.3 s: bench
+        assert 'bus process lost' in status.message and 'signal 9' in status.message
+        unavailable = wait_for(lambda: next((m for m in reversed(axes) if all(not a.available for a in m.axes)), None),
+                               2, 'every joint unavailable on ~/axis_states')
+        assert all('bus process lost' in a.message for a in unavailable.axes)
+        commands.publish(Float64MultiArray(data=[0.0, 0.0, 0.0, 0.0]))
+        refusal = wait_for(lambda: next((e for e in errors if 'bus process lost' in e.data), None), 2,
+                           'the command refused with the reason')
+        assert refusal.data.startswith('~/commands: refused: bus process lost')
+        assert bridge.wait(10) == 3
+        assert not bridge.stderr or 'bus process lost' in bridge.stderr.read()
+
+
+@pytest.fixture(autouse=True)
+def _own_can_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The local bus's sockets in this test's directory (the bridge process inherits it)."""
+    monkeypatch.setenv('DRIVE_BRIDGE_CAN_DIR', str(tmp_path))
