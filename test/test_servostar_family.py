@@ -33,9 +33,9 @@ from drive_bridge.families.parameters import ParameterError
 from drive_bridge.families.servostar import Servostar, ServostarAxis, emcy as ss_emcy, pdos as ss_pdos
 from drive_bridge.families.servostar.parameters import TABLE, lookup
 from drive_bridge.joint import DriveState, Setpoint
+from drive_bridge.master.errors import SdoError
 from drive_bridge.master.master import Master
 from drive_bridge.master.pdo import od_variable
-from drive_bridge.master.sdo import SdoError
 from drive_bridge.model import BusConfig, PdoConfig, PdoEntry
 from drive_bridge.sim import SimulatedBus
 from drive_bridge.streaming.executor import TrajectoryExecutor

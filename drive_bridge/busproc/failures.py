@@ -8,7 +8,7 @@ from drive_bridge.busproc.reports import Failure
 from drive_bridge.busproc.workers import Busy
 from drive_bridge.families.parameters import ParameterError
 from drive_bridge.joint import JointError
-from drive_bridge.master.sdo import ObjectAddress, SdoError
+from drive_bridge.master.errors import ObjectAddress, SdoError
 from drive_bridge.streaming.trajectory import TrajectoryError
 
 
