@@ -38,8 +38,9 @@ from drive_bridge.master.master import Master
 from drive_bridge.master.pdo import od_variable
 from drive_bridge.model import BusConfig, PdoConfig, PdoEntry
 from drive_bridge.sim import SimulatedBus
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.executor import TrajectoryExecutor
-from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
+from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 from timingtools import assert_follows
 
 REPO = Path(__file__).resolve().parent.parent

@@ -34,7 +34,7 @@ from drive_bridge.ros.message_checks import check_joint_commands, check_trajecto
 from drive_bridge.ros.message_limits import check_trajectory_bytes
 from drive_bridge.ros.parameters import BridgeParameters
 from drive_bridge.ros.state_topics import safe_publish
-from drive_bridge.streaming.trajectory import TrajectoryError
+from drive_bridge.streaming.errors import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
 

@@ -35,7 +35,7 @@ from drive_bridge.ros.goal_checks import check_goal, tolerances
 from drive_bridge.ros.message_checks import check_trajectory_points
 from drive_bridge.ros.message_limits import check_trajectory_size
 from drive_bridge.ros.pool import await_future
-from drive_bridge.streaming.trajectory import TrajectoryError
+from drive_bridge.streaming.errors import TrajectoryError
 
 FEEDBACK_PERIOD = 0.05
 DEFAULT_SETTLE = 0.5  # s allowed after the end for the goal tolerance when goal_time_tolerance is 0

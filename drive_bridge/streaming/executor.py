@@ -16,13 +16,13 @@ from dataclasses import dataclass, field
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.joint import DriveState, JointDriver, JointError, Setpoint
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.planning import plan
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (
     JointSample,
     JointSpline,
     Trajectory,
-    TrajectoryError,
     validate,
 )
 
