@@ -39,8 +39,9 @@ from drive_bridge.model import BusConfig
 from drive_bridge.resources import shipped_config
 from drive_bridge.sim import SimulatedBus
 from drive_bridge.sim.faults import FaultyBus
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.executor import TrajectoryExecutor
-from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
+from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 
 DETECT_TIMEOUT = 3.0  # s for the bridge to report a fault
 RECOVER_TIMEOUT = 15.0  # s for the bus to be back in service after the fault is cleared

@@ -24,7 +24,7 @@ from bustools import demo_data
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.typestore import typestore
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.ros.bridge import StartupError
+from drive_bridge.ros.errors import StartupError
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
 from rostools import RosHarness, wait_for

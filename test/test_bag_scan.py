@@ -24,8 +24,9 @@ from drive_bridge.master.master import Master
 from drive_bridge.model import BusConfig, Identity
 from drive_bridge.sim import SimulatedBus, simulator_for
 from drive_bridge.sim.testing import AKD_EDS, node_config
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.executor import TrajectoryExecutor
-from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
+from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 
 
 @pytest.fixture
@@ -107,7 +108,8 @@ def test_a_full_transmit_queue_is_waited_out_then_a_clear_error(demo_bus) -> Non
     import can
     import canopen
 
-    from drive_bridge.bag.scan import ScanError, scan
+    from drive_bridge.bag.errors import ScanError
+    from drive_bridge.bag.scan import scan
     from drive_bridge.sim.faults import FaultyBus
     bus = FaultyBus(can.Bus(interface='virtual', channel=demo_bus.bus.channel))
     network = canopen.Network(bus)

@@ -10,7 +10,8 @@ from rclpy.parameter import Parameter
 
 from bustools import config_from, demo_data
 from drive_bridge.config import ConfigError
-from drive_bridge.ros.bridge import StartupError, load_config
+from drive_bridge.ros.bridge import load_config
+from drive_bridge.ros.errors import StartupError
 from drive_bridge.ros.node import BusNode
 from drive_bridge.ros.parameters import BridgeParameters
 from rostools import RosHarness

@@ -13,8 +13,9 @@ from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.modes import Mode, mode_name, parse_mode
 from drive_bridge.cia402.statemachine import State, next_command, state_from_statusword
 from drive_bridge.families import get_family
+from drive_bridge.master.errors import ObjectAddress, SdoError
 from drive_bridge.master.pdo import ProcessImage, compile_pdo
-from drive_bridge.master.sdo import ObjectAddress, SdoError, abort_text, decode, encode
+from drive_bridge.master.sdo import abort_text, decode, encode
 from drive_bridge.model import PdoConfig, PdoEntry
 
 TRACES = Path(__file__).resolve().parents[2] / 'shared' / 'realdata' / 'traces'

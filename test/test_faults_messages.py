@@ -21,7 +21,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from bridgetools import fresh_snapshot
 from bustools import demo_data
 from drive_bridge.master.events import EventKind
-from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, MalformedMessage, check_trajectory_bytes, trajectory_counts
+from drive_bridge.ros.errors import MalformedMessage
+from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, check_trajectory_bytes, trajectory_counts
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
 from faulttools import demo_bridge

@@ -23,7 +23,7 @@ from drive_bridge.master.kernelsync import sends_periodic_in_kernel
 from drive_bridge.master.master import Master
 from drive_bridge.master.sync import SYNC_COB_ID
 from drive_bridge.model import BusConfig
-from drive_bridge.ros.bridge import StartupError
+from drive_bridge.ros.errors import StartupError
 from drive_bridge.ros.node import BusNode
 from drive_bridge.sim import SimulatedBus
 from drive_bridge.sim.faults import FaultyBus

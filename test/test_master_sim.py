@@ -17,8 +17,8 @@ from bustools import config_from, demo_data, eventually, running
 from drive_bridge.cia402.axis import AxisError
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
+from drive_bridge.master.errors import SdoError
 from drive_bridge.master.events import EventKind
-from drive_bridge.master.sdo import SdoError
 from timingtools import BUSY_SLACK
 
 JOINTS = ('base_joint', 'shoulder_joint', 'elbow_joint', 'lift_joint')

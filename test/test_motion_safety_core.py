@@ -14,8 +14,9 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
 from drive_bridge.master.events import EventKind
 from drive_bridge.model import AxisLimits
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.planning import plan
-from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryError, TrajectoryPoint, validate
+from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, validate
 
 LIMITS = {'j': AxisLimits(-3.1, 3.1, 2.0, 10.0)}
 AKD_EXAMPLE = DEMO.parent / 'akd_pvt_example.yaml'

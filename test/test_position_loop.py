@@ -13,8 +13,9 @@ import pytest
 from bustools import config_from, eventually, running, unique_channel
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.executor import TrajectoryExecutor
-from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
+from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 from timingtools import assert_follows
 
 JOINT = 'wheel_joint'

@@ -33,7 +33,7 @@ from drive_bridge.config import ConfigError
 from drive_bridge.families import Liveness, get_family
 from drive_bridge.families.parameters import ParameterError
 from drive_bridge.families.s120 import S120Axis, SinamicsS120, boot as s120_boot, emcy as s120_emcy, pdos as s120_pdos
-from drive_bridge.families.s120.boot import S120BootError
+from drive_bridge.families.s120.errors import S120BootError
 from drive_bridge.families.s120.parameters import parse_name
 from drive_bridge.master.master import Master
 from drive_bridge.model import AxisConfig, BusConfig, PdoConfig, PdoEntry

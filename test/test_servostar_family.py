@@ -33,13 +33,14 @@ from drive_bridge.families.parameters import ParameterError
 from drive_bridge.families.servostar import Servostar, ServostarAxis, emcy as ss_emcy, pdos as ss_pdos
 from drive_bridge.families.servostar.parameters import TABLE, lookup
 from drive_bridge.joint import DriveState, Setpoint
+from drive_bridge.master.errors import SdoError
 from drive_bridge.master.master import Master
 from drive_bridge.master.pdo import od_variable
-from drive_bridge.master.sdo import SdoError
 from drive_bridge.model import BusConfig, PdoConfig, PdoEntry
 from drive_bridge.sim import SimulatedBus
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.executor import TrajectoryExecutor
-from drive_bridge.streaming.trajectory import Trajectory, TrajectoryError, TrajectoryPoint
+from drive_bridge.streaming.trajectory import Trajectory, TrajectoryPoint
 from timingtools import assert_follows
 
 REPO = Path(__file__).resolve().parent.parent

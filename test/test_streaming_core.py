@@ -44,7 +44,7 @@ def test_a_stalled_sync_thread_delays_the_trajectory_instead_of_faulting_the_dri
 def test_a_velocity_only_trajectory_is_integrated_and_streamed_in_csv() -> None:
     """joint_trajectory_controller's allow_integration_in_goal_trajectories: points with
     velocities and no positions; the axis ends where the integrated velocities say."""
-    from drive_bridge.streaming.trajectory import TrajectoryError
+    from drive_bridge.streaming.errors import TrajectoryError
     with running(config_from(demo_data())) as (master, sim):
         axis = master.axes['elbow_joint']
         axis.enable(timeout=2.0)

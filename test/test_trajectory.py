@@ -6,10 +6,10 @@ import math
 import pytest
 
 from drive_bridge.model import AxisLimits
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.trajectory import (
     JointSample,
     Trajectory,
-    TrajectoryError,
     TrajectoryPoint,
     joint_splines,
     validate,

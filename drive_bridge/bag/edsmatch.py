@@ -14,7 +14,8 @@ from pathlib import Path
 from canopen import ObjectDictionary
 
 from drive_bridge.bag.errors import BagError
-from drive_bridge.config.eds import SUFFIXES, EdsError, read_object_dictionary
+from drive_bridge.config.eds import SUFFIXES, read_object_dictionary
+from drive_bridge.config.errors import EdsError
 from drive_bridge.model import Identity
 
 IDENTITY = 0x1018

@@ -4,17 +4,13 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable
 
-from drive_bridge.bag.errors import BagError
+from drive_bridge.bag.errors import OfflineSdoError
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.families import BootDetection, DriveFamily
 from drive_bridge.master.node import EMCY_HISTORY
 from drive_bridge.master.pdo import ObjectKey, PdoLayout, ProcessImage, od_variable
 from drive_bridge.model import NodeConfig
-
-
-class OfflineSdoError(BagError):
-    """A joint driver asked for an SDO transfer, which a recording cannot answer."""
 
 
 class OfflineNode:

@@ -19,7 +19,7 @@ import canopen
 from canopen.sdo.constants import EXPEDITED, REQUEST_UPLOAD, RESPONSE_ABORTED, RESPONSE_UPLOAD, SIZE_SPECIFIED
 from canopen.sdo.exceptions import SdoError
 
-from drive_bridge.bag.errors import BagError
+from drive_bridge.bag.errors import ScanError
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.families import IdentityMatch, families_for_identity, get_family
 from drive_bridge.model import Identity
@@ -30,10 +30,6 @@ SDO_SERVER_RX, SDO_SERVER_TX = 0x600, 0x580  # client -> server, server -> clien
 SEND_RETRIES = 5  # a full transmit queue (SocketCAN's ENOBUFS) drains in about a frame time
 SEND_BACKOFF = 0.001  # s, times the attempt
 _UPLOAD = struct.Struct('<BHB4s')
-
-
-class ScanError(BagError):
-    """A scan that could not run (bad node range, no bus)."""
 
 
 @dataclass(frozen=True)

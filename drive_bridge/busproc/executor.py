@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 from drive_bridge.busproc.intents import CHUNK_POINTS, Query, Stop, TrajectoryChunk
 from drive_bridge.busproc.proxies import HandleProxy
 from drive_bridge.busproc.reports import FeederState, HandleState
+from drive_bridge.joint.strategy import NOT_STREAMED
 from drive_bridge.streaming.trajectory import JointSample, Trajectory
 
 if TYPE_CHECKING:
@@ -62,7 +63,7 @@ class ExecutorProxy:
         return time.time() - self.lag
 
     def strategy(self, joint: str) -> str:
-        return self.client.axes[joint].stream_strategy() or 'none'
+        return self.client.axes[joint].stream_strategy() or NOT_STREAMED
 
     def desired(self, joint: str, t: float) -> JointSample | None:
         samples = self.client.call(Query('desired', (joint,), at=t), 5.0)

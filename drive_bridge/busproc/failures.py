@@ -8,8 +8,8 @@ from drive_bridge.busproc.reports import Failure
 from drive_bridge.busproc.workers import Busy
 from drive_bridge.families.parameters import ParameterError
 from drive_bridge.joint import JointError
-from drive_bridge.master.sdo import ObjectAddress, SdoError
-from drive_bridge.streaming.trajectory import TrajectoryError
+from drive_bridge.master.errors import ObjectAddress, SdoError
+from drive_bridge.streaming.errors import TrajectoryError
 
 
 def failure(request_id: int, exc: BaseException) -> Failure:

@@ -26,8 +26,9 @@ from drive_bridge.busproc.reports import CommandRefused, FeederState
 from drive_bridge.errors import RequestRefused
 from drive_bridge.joint import JointError, Setpoint
 from drive_bridge.master.master import Master
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
-from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS, Trajectory, TrajectoryError, TrajectoryPoint
+from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS, Trajectory, TrajectoryPoint
 
 ASSEMBLY_TIMEOUT = 5.0  # s a trajectory's chunks may take to arrive before the parts are dropped
 MAX_ASSEMBLIES = 4  # trajectories being assembled at once

@@ -9,7 +9,8 @@ from pathlib import Path
 import canopen
 
 from drive_bridge.bag.edsmatch import EdsFile, eds_paths, matching, read_eds_files
-from drive_bridge.bag.scan import FoundNode, ScanError, parse_node_ids, scan
+from drive_bridge.bag.errors import ScanError
+from drive_bridge.bag.scan import FoundNode, parse_node_ids, scan
 from drive_bridge.bag.starter import starter_config
 
 

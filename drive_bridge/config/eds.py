@@ -15,15 +15,10 @@ from pathlib import Path
 import canopen
 from canopen import ObjectDictionary
 
-from drive_bridge.config.errors import ConfigError
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.config.errors import ConfigError, EdsError
 
 SUFFIXES = ('.eds', '.dcf')
 _UTF8_BOM = b'\xef\xbb\xbf'
-
-
-class EdsError(DriveBridgeError):
-    """Why an EDS/DCF cannot be used (the caller locates it)."""
 
 
 class _Collect(logging.Handler):

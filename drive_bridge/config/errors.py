@@ -1,4 +1,4 @@
-"""ConfigError and the issue collector.
+"""ConfigError and the issue collector; EdsError, which the loader turns into an issue.
 
 The loader gathers every problem of a file before raising, so one run shows the
 user all of them; each issue carries the file and the path inside it.
@@ -33,6 +33,10 @@ class ConfigError(DriveBridgeError, ValueError):
     @classmethod
     def single(cls, file: str, path: str, message: str) -> ConfigError:
         return cls([Issue(file, path, message)])
+
+
+class EdsError(DriveBridgeError):
+    """Why an EDS/DCF cannot be used (the caller locates it)."""
 
 
 @dataclass(frozen=True)

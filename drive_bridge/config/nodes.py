@@ -16,8 +16,8 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.config import keys
 from drive_bridge.config.axes import AxisDraft, check_axis_objects, parse_axes
 from drive_bridge.config.bootcheck import check_heartbeat_limits, fit_supervision
-from drive_bridge.config.eds import EdsError, read_object_dictionary
-from drive_bridge.config.errors import Issues, Loc
+from drive_bridge.config.eds import read_object_dictionary
+from drive_bridge.config.errors import EdsError, Issues, Loc
 from drive_bridge.config.guarding import Supervision, check_guarding_objects, parse_supervision
 from drive_bridge.config.pdo import PdoDraft, family_drafts, parse_pdo_table, resolve_pdo
 from drive_bridge.config.reader import Section, describe, suggestion

@@ -16,10 +16,10 @@ from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families import BootDetection, Liveness, PdoConfiguration
 from drive_bridge.families.ports import BootStep
+from drive_bridge.master.errors import BootError, SdoError
 from drive_bridge.master.guarding import configure_guarding as write_guarding
 from drive_bridge.master.node import NodeRuntime
 from drive_bridge.master.pdo import od_variable
-from drive_bridge.master.sdo import SdoError
 from drive_bridge.model import MasterConfig, PdoConfig
 
 NMT_START = 0x01
@@ -30,15 +30,6 @@ COB_ID_INVALID = 0x80000000
 PROBE_INTERVAL = 0.05  # s between SDO probes of a node that announces no boot-up
 PROBE_TIMEOUT = 0.1
 SYNC_WINDOW = 0x1007  # synchronous window length, µs (CiA 301)
-
-
-class BootError(DriveBridgeError):
-    """A boot step failed."""
-
-    def __init__(self, node: NodeRuntime, step: str, message: str, abort_code: int = 0) -> None:
-        super().__init__(f'node {node.node_id} ({node.name}) boot step "{step}": {message}')
-        self.step = step
-        self.abort_code = abort_code
 
 
 # SDO abort classes a repeated identical write always gets again (CiA 301): access (0x0601),

@@ -27,9 +27,10 @@ from drive_bridge.config.errors import ConfigError
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.parameters import ParameterAccess, ParameterError
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
-from drive_bridge.master.boot import BootError, boot_node, repeats_identically
+from drive_bridge.master.boot import boot_node, repeats_identically
 from drive_bridge.master.bus import BusHealth, FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
+from drive_bridge.master.errors import BootError, ObjectAddress, SdoError
 from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.feedback import CycleFeedback
 from drive_bridge.master.flood import UnknownFrames
@@ -38,7 +39,7 @@ from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
 from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
 from drive_bridge.master.realtime import SwitchInterval, make_realtime
 from drive_bridge.master.run_on import RunOnStop
-from drive_bridge.master.sdo import AUTO, ObjectAddress, SdoChannel, SdoError, SdoPlain
+from drive_bridge.master.sdo import AUTO, SdoChannel, SdoPlain
 from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
 from drive_bridge.model import BusConfig
 

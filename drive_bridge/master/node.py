@@ -25,7 +25,7 @@ from drive_bridge.master.sdo_worker import SdoWorker
 from drive_bridge.model import MasterConfig, NodeConfig
 
 if TYPE_CHECKING:
-    from drive_bridge.master.boot import BootError
+    from drive_bridge.master.errors import BootError
 
 EMCY_HISTORY = 32
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TypeVar
 
 import can
@@ -17,7 +16,7 @@ import canopen
 from canopen.objectdictionary import ODVariable, datatypes as dt
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.master.errors import ObjectAddress, SdoError
 
 SdoPlain = bool | int | float | str | bytes
 _T = TypeVar('_T')
@@ -50,26 +49,6 @@ def abort_text(code: int) -> str:
 
 def type_name(data_type: int) -> str:
     return TYPE_NAMES.get(data_type, f'type 0x{data_type:02X}')
-
-
-@dataclass(frozen=True)
-class ObjectAddress:
-    node_id: int
-    index: int
-    subindex: int
-
-    def __str__(self) -> str:
-        return f'node {self.node_id} object 0x{self.index:04X}:{self.subindex:02X}'
-
-
-class SdoError(DriveBridgeError):
-    """An SDO that failed: abort by the node (``abort_code`` set), timeout, or bad value."""
-
-    def __init__(self, where: ObjectAddress, message: str, abort_code: int = 0) -> None:
-        super().__init__(f'{where}: {message}')
-        self.where = where
-        self.abort_code = abort_code
-        self.reason = message
 
 
 def od_data_type(od: canopen.ObjectDictionary, node_id: int, index: int, subindex: int) -> int:

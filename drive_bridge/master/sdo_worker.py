@@ -10,8 +10,9 @@ import threading
 import time
 from collections.abc import Callable
 
+from drive_bridge.master.errors import SdoError
 from drive_bridge.master.pdo import ObjectKey
-from drive_bridge.master.sdo import SdoChannel, SdoError
+from drive_bridge.master.sdo import SdoChannel
 
 InputSink = Callable[[ObjectKey, int | float, float], None]
 

@@ -20,18 +20,15 @@ from drive_bridge.master.events import BusEvent, Level
 from drive_bridge.model import BusConfig
 from drive_bridge.ros.callback_guard import failures_of
 from drive_bridge.ros.command_topics import CommandTopics
+from drive_bridge.ros.errors import NodeParameterRefused, StartupError
 from drive_bridge.ros.param_services import ParameterServices
-from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare
+from drive_bridge.ros.parameters import BridgeParameters, declare
 from drive_bridge.ros.recording import RecordControl
 from drive_bridge.ros.services import BridgeServices
 from drive_bridge.ros.state_topics import StateTopics
 from drive_bridge.ros.trajectory_action import TrajectoryAction
 
 AUTO_ENABLE_TIMEOUT = 30.0
-
-
-class StartupError(DriveBridgeError, RuntimeError):
-    """The node cannot start: bad parameters or configuration (the message says what)."""
 
 
 def config_source(params: BridgeParameters) -> ConfigSource:
@@ -208,7 +205,7 @@ def declare_and_load(node: Node, config_path: str) -> tuple[BridgeParameters, Bu
     configuration (StartupError says what is wrong)."""
     try:
         params = declare(node)
-    except ParameterError as exc:
+    except NodeParameterRefused as exc:
         raise StartupError(str(exc)) from None
     params = with_config_path(params, config_path)
     return params, configuration(params)

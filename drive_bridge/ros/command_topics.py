@@ -24,26 +24,19 @@ from drive_bridge.busproc.client import BusClient
 from drive_bridge.busproc.executor import ExecutorProxy
 from drive_bridge.busproc.intents import JointCommand
 from drive_bridge.busproc.proxies import HandleProxy
-from drive_bridge.errors import DriveBridgeError, RequestRefused
+from drive_bridge.errors import RequestRefused
 from drive_bridge.joint import JointError
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.master.events import BusEvent, EventKind
 from drive_bridge.ros.conversions import finite_or_none, trajectory_from_msg
-from drive_bridge.ros.message_checks import NonFinite, check_joint_commands, check_trajectory_points
-from drive_bridge.ros.message_limits import (
-    MalformedMessage,
-    MessageTooLarge,
-    check_trajectory_bytes,
-)
+from drive_bridge.ros.errors import MalformedMessage, MessageTooLarge, NonFinite
+from drive_bridge.ros.message_checks import check_joint_commands, check_trajectory_points
+from drive_bridge.ros.message_limits import check_trajectory_bytes
 from drive_bridge.ros.parameters import BridgeParameters
 from drive_bridge.ros.state_topics import safe_publish
-from drive_bridge.streaming.trajectory import TrajectoryError
+from drive_bridge.streaming.errors import TrajectoryError
 
 LOG_INTERVAL = 1.0  # s between log lines for repeated command errors on one topic
-
-
-class CommandRefused(DriveBridgeError, ValueError):
-    pass
 
 
 def log_accepted(node: Node, handle: HandleProxy, points: int) -> None:

@@ -13,18 +13,11 @@ import math
 from collections.abc import Collection, Sequence
 from typing import Any
 
+from drive_bridge.ros.errors import GoalRefused
 from drive_bridge.ros.message_limits import MAX_JOINT_NAMES
 
 SHOWN = 5  # names quoted in a reason; the rest are counted
 NAME_CHARS = 40  # of a name quoted (a client may send megabytes)
-
-
-class GoalRefused(ValueError):
-    """A goal the bridge will not execute; ``code`` is the Result error code to answer."""
-
-    def __init__(self, code: int, reason: str) -> None:
-        super().__init__(reason)
-        self.code = code
 
 
 def _names(names: Sequence[str]) -> str:

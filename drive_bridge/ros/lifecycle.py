@@ -12,9 +12,10 @@ from collections.abc import Callable
 
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
-from drive_bridge.ros.bridge import Bridge, StartupError, configuration, with_config_path
+from drive_bridge.ros.bridge import Bridge, configuration, with_config_path
 from drive_bridge.ros.callback_guard import GuardedCallbacks
-from drive_bridge.ros.parameters import BridgeParameters, ParameterError, declare, read, watch
+from drive_bridge.ros.errors import NodeParameterRefused, StartupError
+from drive_bridge.ros.parameters import BridgeParameters, declare, read, watch
 
 
 class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
@@ -28,7 +29,7 @@ class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
         self.on_bus_started: Callable[[int], None] | None = None  # (node_nice) once a bus process runs
         try:
             self.params = declare(self)
-        except ParameterError as exc:
+        except NodeParameterRefused as exc:
             self.get_logger().error(str(exc))  # configure will fail and say so again
         # unconfigured: anything may be set (configure reads and checks it); configured: guarded
         watch(self, lambda: self.params if self.bridge is not None else None, self._apply)
@@ -41,7 +42,7 @@ class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
             params = with_config_path(read(self), self.config_path)  # the values set since start count
-        except ParameterError as exc:
+        except NodeParameterRefused as exc:
             self.get_logger().error(f'cannot configure: {exc}')
             return TransitionCallbackReturn.FAILURE
         try:

@@ -9,7 +9,7 @@ import time
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-from drive_bridge.ros.bridge import StartupError
+from drive_bridge.ros.errors import StartupError
 from drive_bridge.ros.lifecycle import BusLifecycleNode
 from drive_bridge.ros.node import BusNode
 

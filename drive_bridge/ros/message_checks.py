@@ -7,11 +7,7 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-from drive_bridge.ros.errors import RequestRefused
-
-
-class NonFinite(RequestRefused, ValueError):
-    """A message field holds NaN or an infinity where a number is needed."""
+from drive_bridge.ros.errors import NonFinite
 
 
 def _first_bad(values: Iterable[float], allow_nan: bool) -> tuple[int, float] | None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import struct
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.ros.errors import MalformedMessage, MessageTooLarge
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
 
 MAX_JOINT_NAMES = 64  # far more than one bus has; a longer list is an error, not a command
@@ -20,14 +20,6 @@ _BIG = {b'\x00\x00', b'\x00\x06'}  # CDR_BE, CDR2_BE
 _PARAMETER_LIST = {b'\x00\x02', b'\x00\x03'}  # PL_CDR: members as parameters, another layout
 POINT_FIXED = 16  # per point: time_from_start (8) and alignment
 SEQUENCE_FIXED = 8  # per float64[] of a point: its length (4) and alignment to 8
-
-
-class MessageTooLarge(DriveBridgeError, ValueError):
-    """A message over a size limit; refused before it is deserialized."""
-
-
-class MalformedMessage(DriveBridgeError, ValueError):
-    """Serialized bytes that are not a message of the expected type."""
 
 
 class _Reader:

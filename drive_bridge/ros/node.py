@@ -5,8 +5,9 @@ from rclpy.node import Node
 
 from drive_bridge.busproc.client import BusClient
 from drive_bridge.busproc.executor import ExecutorProxy
-from drive_bridge.ros.bridge import Bridge, StartupError, declare_and_load
+from drive_bridge.ros.bridge import Bridge, declare_and_load
 from drive_bridge.ros.callback_guard import GuardedCallbacks
+from drive_bridge.ros.errors import StartupError
 from drive_bridge.ros.parameters import BridgeParameters, watch
 
 __all__ = ['BusNode', 'StartupError']

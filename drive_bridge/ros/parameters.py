@@ -17,7 +17,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.ros.errors import NodeParameterRefused
 
 COMMAND_INTERFACES = ('position', 'velocity', 'effort')
 RELIABILITIES = ('reliable', 'best_effort')
@@ -89,10 +89,6 @@ MAX_STATE_RATE = RANGES['state_rate'][1]  # Hz
 MIN_DIAGNOSTICS_PERIOD = RANGES['diagnostics_period'][0]  # s
 
 
-class ParameterError(DriveBridgeError, ValueError):
-    """One or more parameters are invalid; the message lists each."""
-
-
 def _typed(name: str, value: Any) -> Any:
     """A ROS parameter value as the BridgeParameters field takes it."""
     default = _DEFAULTS[name]
@@ -104,7 +100,7 @@ def _typed(name: str, value: Any) -> Any:
 
 
 def declare(node: Node) -> BridgeParameters:
-    """Declare every parameter and return them validated (ParameterError lists all problems)."""
+    """Declare every parameter and return them validated (NodeParameterRefused lists all problems)."""
     problems = []
     for f in fields(BridgeParameters):
         default = f.default
@@ -120,17 +116,17 @@ def declare(node: Node) -> BridgeParameters:
         except ParameterException as exc:
             problems.append(f'parameter {f.name}: {exc}')
     if problems:
-        raise ParameterError('; '.join(problems))
+        raise NodeParameterRefused('; '.join(problems))
     return read(node)
 
 
 def read(node: Node) -> BridgeParameters:
-    """The node's present parameter values, validated (ParameterError lists all problems)."""
+    """The node's present parameter values, validated (NodeParameterRefused lists all problems)."""
     params = BridgeParameters(**{f.name: _typed(f.name, node.get_parameter_or(f.name).value)
                                  for f in fields(BridgeParameters)})
     problems = validate(params)
     if problems:
-        raise ParameterError('; '.join(problems))
+        raise NodeParameterRefused('; '.join(problems))
     return params
 
 

@@ -27,7 +27,8 @@ from drive_bridge.busproc.intents import Stop, StopName
 from drive_bridge.busproc.proxies import AxisProxy
 from drive_bridge.cia301.nmt import NMT_COMMANDS
 from drive_bridge.joint import JointError
-from drive_bridge.master.sdo import ObjectAddress, SdoError, type_name
+from drive_bridge.master.errors import ObjectAddress, SdoError
+from drive_bridge.master.sdo import type_name
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.conversions import python_to_sdo_value, sdo_value_to_python
 from drive_bridge.ros.errors import RequestRefused

@@ -29,12 +29,13 @@ from drive_bridge.errors import RequestRefused
 from drive_bridge.ros.callback_guard import failures_of, guard_execute, guard_goal
 from drive_bridge.ros.command_topics import log_accepted
 from drive_bridge.ros.conversions import seconds, trajectory_from_msg
+from drive_bridge.ros.errors import GoalRefused, MessageTooLarge, NonFinite
 from drive_bridge.ros.frames import stamp_from_seconds
-from drive_bridge.ros.goal_checks import GoalRefused, check_goal, tolerances
-from drive_bridge.ros.message_checks import NonFinite, check_trajectory_points
-from drive_bridge.ros.message_limits import MessageTooLarge, check_trajectory_size
+from drive_bridge.ros.goal_checks import check_goal, tolerances
+from drive_bridge.ros.message_checks import check_trajectory_points
+from drive_bridge.ros.message_limits import check_trajectory_size
 from drive_bridge.ros.pool import await_future
-from drive_bridge.streaming.trajectory import TrajectoryError
+from drive_bridge.streaming.errors import TrajectoryError
 
 FEEDBACK_PERIOD = 0.05
 DEFAULT_SETTLE = 0.5  # s allowed after the end for the goal tolerance when goal_time_tolerance is 0

@@ -16,13 +16,14 @@ from dataclasses import dataclass, field
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.joint import DriveState, JointDriver, JointError, Setpoint
+from drive_bridge.joint.strategy import NOT_STREAMED, StreamStrategy
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.planning import plan
 from drive_bridge.streaming.pvt import PvtFeeder
 from drive_bridge.streaming.trajectory import (
     JointSample,
     JointSpline,
     Trajectory,
-    TrajectoryError,
     validate,
 )
 
@@ -172,13 +173,13 @@ class TrajectoryExecutor:
         return handle
 
     def strategy(self, joint: str) -> str:
-        """How the joint is streamed in its current mode (its drive family decides):
-        cyclic (position set-points), cyclic-velocity, ip-linear or pvt."""
-        return self.axes[joint].stream_strategy() or 'none'
+        """How the joint is streamed in its current mode (its drive family decides): a
+        :class:`StreamStrategy`, or :data:`NOT_STREAMED` when the mode takes no trajectory."""
+        return self.axes[joint].stream_strategy() or NOT_STREAMED
 
     def _attach(self, joint: str, start: float) -> None:
         axis = self.axes[joint]
-        if self.strategy(joint) == 'pvt':
+        if self.strategy(joint) == StreamStrategy.PVT:
             feeder = self._feeders.get(joint)
             if feeder is None:
                 feeder = PvtFeeder(lambda t: self.desired(joint, t), lambda: self._end_of(joint),
@@ -222,14 +223,14 @@ class TrajectoryExecutor:
 
         def sample(t: float) -> Setpoint | None:
             t = self._tick(t)
-            if axis.stream_strategy() == 'position-loop':
+            if axis.stream_strategy() == StreamStrategy.POSITION_LOOP:
                 # the measured position was sampled at the previous SYNC: compare it with the
                 # desired position then; feed forward the velocity of the coming period
                 then, ahead = self.desired(joint, t - period), self.desired(joint, t + period / 2)
                 if then is None or ahead is None:
                     return None
                 return Setpoint(position=then.position, velocity=ahead.velocity)
-            if axis.stream_strategy() == 'cyclic-velocity':
+            if axis.stream_strategy() == StreamStrategy.CYCLIC_VELOCITY:
                 desired = self.desired(joint, t + period / 2)
                 return None if desired is None else Setpoint(velocity=desired.velocity)
             desired = self.desired(joint, t + period)
@@ -244,7 +245,8 @@ class TrajectoryExecutor:
         stream of its joints and hold them with HALT (safe: the drive decelerates and stays
         enabled; 'resume' clears it). The feeder is detached: on resume the axis then clears
         the points an overflow left queued, so they never run."""
-        joints = [j for j, a in self.axes.items() if a.is_stream_fault(event) and self.strategy(j) == 'pvt']
+        joints = [j for j, a in self.axes.items()
+                  if a.is_stream_fault(event) and self.strategy(j) == StreamStrategy.PVT]
         if not joints:
             return
         self.stop(joints, f'{event}: stream aborted, axis held (HALT)', 'aborted')

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from drive_bridge.model import AxisLimits
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.motion_check import (
     MotionViolation,
     SegmentPeaks,
@@ -32,7 +33,6 @@ from drive_bridge.streaming.trajectory import (
     SplineParts,
     Trajectory,
     TrajectoryArrays,
-    TrajectoryError,
 )
 
 STRETCH_ROUNDS = 8  # a stretched cubic with given waypoint velocities converges in two or three

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint.limits import unset_problem
 from drive_bridge.model import AxisLimits
+from drive_bridge.streaming.errors import TrajectoryError
 from drive_bridge.streaming.motion_check import coefficient_matrix
 
 
@@ -52,10 +52,6 @@ class JointSample:
 # Points in one trajectory: bounds the work (and the GIL time) of converting, validating and
 # splining a client's message. At a 4 ms cycle, 5000 points are 20 s streamed point by point.
 MAX_TRAJECTORY_POINTS = 5000
-
-
-class TrajectoryError(DriveBridgeError, ValueError):
-    """A trajectory refused as a whole; the message says why."""
 
 
 def _first(mask: npt.NDArray[np.bool_]) -> tuple[int, int]:

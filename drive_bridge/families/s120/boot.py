@@ -28,9 +28,9 @@ from __future__ import annotations
 import logging
 import time
 
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.ports import NodePort
 from drive_bridge.families.s120 import objects as s
+from drive_bridge.families.s120.errors import S120BootError
 from drive_bridge.families.s120.parameters import read_number
 from drive_bridge.families.s120.pdos import check_pdos
 from drive_bridge.families.s120.units import DriveUnits
@@ -41,10 +41,6 @@ NMT_ENTER_PRE_OPERATIONAL = 0x80
 NMT_SETTLE = 0.01  # s after the NMT command before the first SDO
 COB_INVALID = 0x80000000
 COB_MASK = 0x7FF
-
-
-class S120BootError(DriveBridgeError):
-    """A boot step found the drive unusable as configured (the message says how to fix it)."""
 
 
 def enter_pre_operational(node: NodePort) -> None:
