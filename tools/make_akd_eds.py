@@ -73,7 +73,7 @@ from canopen.objectdictionary import ODRecord, datatypes as dt
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from edswriter import container, new_od, var, write_eds  # noqa: E402
 
-OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'akd.eds'
+OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'akd' / 'data' / 'akd.eds'
 
 VENDOR_ID = 0x0000006A  # "Danaher Motion" (§6.2.1.17)
 PRODUCT_CODE = int.from_bytes(b'M006', 'little')

@@ -21,7 +21,7 @@ from drive_bridge.model import AxisConfig
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from edswriter import container, new_od, var, write_eds  # noqa: E402
 
-OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data'
+OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'generic402' / 'data'
 
 VENDOR_ID = 0x00000000  # no CiA vendor id: this is a simulated drive
 PRODUCT_CODE = 0x00000402

@@ -85,7 +85,7 @@ sys.path.insert(0, str(ROOT))
 from drive_bridge.sim.opendrive.parameters import CONNECTIONS, PARAMETERS  # noqa: E402
 from edswriter import container, new_od, var, write_eds  # noqa: E402
 
-OUT = ROOT / 'drive_bridge' / 'families' / 'data' / 'opendrive.eds'
+OUT = ROOT / 'drive_bridge' / 'families' / 'opendrive' / 'data' / 'opendrive.eds'
 
 I16, U8, U16, U32 = dt.INTEGER16, dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
 VS, DOMAIN = dt.VISIBLE_STRING, dt.DOMAIN

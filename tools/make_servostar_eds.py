@@ -146,7 +146,7 @@ from canopen.objectdictionary import ODRecord, datatypes as dt
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from edswriter import container, new_od, var, write_eds  # noqa: E402
 
-OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'servostar.eds'
+OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'servostar' / 'data' / 'servostar.eds'
 
 VENDOR_ID = 0x0000006A
 PRODUCT_CODE = 6  # output-stage current rating (A): SD06
