@@ -1,7 +1,7 @@
 """Kollmorgen AKD servo drives over CANopen (manual rev. F, 903-200004-03; shared/drives/akd.md).
 
-What the bridge needs to know beyond the EDS (drive_bridge/families/data/akd.eds, written by
-tools/make_akd_eds.py):
+What the bridge needs to know beyond the EDS (drive_bridge/families/akd/data/akd.eds, written by
+families/akd/edsgen.py):
 
 - one axis per node; PVT is interpolation sub-mode -2 of interpolated position mode and is
   the default way to stream trajectories (``interpolation: pvt``);

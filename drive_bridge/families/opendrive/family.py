@@ -1,8 +1,8 @@
 """The ``opendrive`` family: OPEN drive converters over CANopen (CiA 301 only; shared/drives/
 opendrive.md, from the drive's CAN appendix).
 
-What the bridge knows beyond the EDS (drive_bridge/families/data/opendrive.eds, written by
-tools/make_opendrive_eds.py):
+What the bridge knows beyond the EDS (drive_bridge/families/opendrive/data/opendrive.eds, written by
+families/opendrive/edsgen.py):
 
 - no CiA 402: the joint driver is :class:`~drive_bridge.families.opendrive.driver.RunLogicDriver`
   (enable = the RUN logic function, references 0x201A/0x201D and 0x201C, alarms 0x2018);

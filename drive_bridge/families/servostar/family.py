@@ -2,7 +2,7 @@
 CANopen interface (shared/drives/servostar-400-600.md, from the manual "CANopen SERVOSTAR
 400/600", edition 12/2009, firmware >= 6.57).
 
-What the bridge knows beyond the EDS (drive_bridge/families/data/servostar.eds):
+What the bridge knows beyond the EDS (drive_bridge/families/servostar/data/servostar.eds):
 
 - boot-up: an EMCY on 0x80 + id with 0 bytes or 8 zero bytes (DRVCNFG), no 0x700 frame, no NMT
   reset communication (a node's ``reset_communication`` defaults to false): the master waits for
