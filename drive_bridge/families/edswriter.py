@@ -85,6 +85,15 @@ def container(name: str, index: int, members: list[ODVariable], array: bool = Fa
     return box
 
 
+def mapping_record(name: str, index: int, entries: Sequence[int] = ()) -> ODRecord:
+    """A PDO mapping parameter: eight entries, ``entries`` first, sub 0 (rw) the count in use."""
+    members = [var(f'Mapping entry {i}', index, i, dt.UNSIGNED32, 'rw', entries[i - 1] if i <= len(entries) else 0)
+               for i in range(1, 9)]
+    record = container(name, index, members, count_access='rw', count=len(entries))
+    assert isinstance(record, ODRecord)
+    return record
+
+
 def write_eds(od: canopen.ObjectDictionary, path: Path) -> canopen.ObjectDictionary:
     """Write ``od`` as an EDS without the volatile date lines (stable files in git), and
     return it read back (node id 5) for the caller's checks."""

@@ -65,9 +65,9 @@ Other choices where the manual is silent or self-contradictory:
 from __future__ import annotations
 
 import canopen
-from canopen.objectdictionary import ODRecord, datatypes as dt
+from canopen.objectdictionary import datatypes as dt
 
-from drive_bridge.families.edswriter import Device, EdsFile, container, main, members, var, variable
+from drive_bridge.families.edswriter import Device, EdsFile, container, main, mapping_record, members, var, variable
 from drive_bridge.resources import family_data
 
 VENDOR_ID = 0x0000006A  # "Danaher Motion" (§6.2.1.17)
@@ -133,12 +133,6 @@ def pdos(od: canopen.ObjectDictionary) -> None:
             var('Reserved', comm, 4, U8, 'const', 0),
             var('Event timer', comm, 5, U16, 'rw', 0)]))
         od.add_object(mapping_record(f'TPDO{n} mapping parameter', mapping, FACTORY_TPDOS[n]))
-
-
-def mapping_record(name: str, index: int, entries: list[int]) -> ODRecord:
-    members = [var(f'Mapping entry {i}', index, i, U32, 'rw', entries[i - 1] if i <= len(entries) else 0)
-               for i in range(1, 9)]
-    return container(name, index, members, count_access='rw', count=len(entries))  # type: ignore[return-value]
 
 
 def manufacturer(od: canopen.ObjectDictionary) -> None:

@@ -74,9 +74,9 @@ Readings (the appendix is silent or ambiguous; each choice is the simulator's to
 from __future__ import annotations
 
 import canopen
-from canopen.objectdictionary import ODRecord, datatypes as dt
+from canopen.objectdictionary import datatypes as dt
 
-from drive_bridge.families.edswriter import Device, EdsFile, container, main, members, var, variable
+from drive_bridge.families.edswriter import Device, EdsFile, container, main, mapping_record, members, var, variable
 from drive_bridge.families.opendrive.parameter_table import CONNECTIONS, PARAMETERS
 from drive_bridge.resources import family_data
 
@@ -141,11 +141,6 @@ def pdos(od: canopen.ObjectDictionary) -> None:
             var('Reserved', comm, 4, U8, 'rw', 0),
             var('Event timer', comm, 5, U16, 'rw', 0)]))
         od.add_object(mapping_record(f'TPDO{n} mapping parameter', mapping))
-
-
-def mapping_record(name: str, index: int) -> ODRecord:
-    members = [var(f'Mapping entry {i}', index, i, U32, 'rw', 0) for i in range(1, 9)]
-    return container(name, index, members, count_access='rw', count=0)  # type: ignore[return-value]
 
 
 def array(name: str, index: int, count: int, access: str, mappable: bool,

@@ -140,7 +140,7 @@ from __future__ import annotations
 import canopen
 from canopen.objectdictionary import ODRecord, datatypes as dt
 
-from drive_bridge.families.edswriter import Device, EdsFile, container, main, members, var, variable
+from drive_bridge.families.edswriter import Device, EdsFile, container, main, mapping_record, members, var, variable
 from drive_bridge.resources import family_data
 
 VENDOR_ID = 0x0000006A
@@ -227,12 +227,6 @@ def comm_record(name: str, index: int, cob_base: int) -> ODRecord:
         var('Transmission type', index, 2, U8, 'rw', 0xFF),
         var('Inhibit time', index, 3, U16, 'rw', 0),
         var('CMS priority group (compatibility)', index, 4, U8, 'rw', 0)])
-
-
-def mapping_record(name: str, index: int, entries: list[int]) -> ODRecord:
-    members = [var(f'Mapping entry {i}', index, i, U32, 'rw', entries[i - 1] if i <= len(entries) else 0)
-               for i in range(1, 9)]
-    return container(name, index, members, count_access='rw', count=len(entries))  # type: ignore[return-value]
 
 
 def pdos(od: canopen.ObjectDictionary) -> None:
