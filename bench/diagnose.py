@@ -28,7 +28,7 @@ from drive_bridge.bag.diagnose import diagnose
 from drive_bridge.bag.source import open_recording
 from drive_bridge.bag.writer import BagWriter
 from drive_bridge.cia402.statemachine import State, state_from_statusword
-from drive_bridge.families import DATA_DIR
+from drive_bridge.resources import family_data
 
 TRACES = Path(__file__).resolve().parents[2] / 'shared' / 'realdata' / 'traces'
 NODES = (2, 3, 4, 5)
@@ -69,7 +69,7 @@ def synthetic(frames: int) -> list[can.Message]:
 
 @lru_cache(maxsize=1)
 def standard_od() -> canopen.ObjectDictionary:
-    return canopen.import_od(str(DATA_DIR / 'generic402.eds'), 1)
+    return canopen.import_od(str(family_data('generic402', 'generic402.eds')), 1)
 
 
 class NaiveDiagnosis:

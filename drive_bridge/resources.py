@@ -1,4 +1,4 @@
-"""Finding the files drive_bridge ships (demo and example configurations)."""
+"""Finding the files drive_bridge ships (demo and example configurations, the families' data)."""
 from __future__ import annotations
 
 import os
@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 PACKAGE = 'drive_bridge'
+FAMILIES_DIR = Path(__file__).resolve().parent / 'families'
 
 
 def config_dirs() -> list[Path]:
@@ -27,3 +28,9 @@ def shipped_config(name: str) -> Path:
             return candidate
     searched = ', '.join(str(d) for d in config_dirs())
     raise FileNotFoundError(f'shipped config {name!r} not found in: {searched}')
+
+
+def family_data(package: str, name: str) -> Path:
+    """A file a built-in family ships (EDS, tables): ``families/<package>/data/<name>``, package
+    data beside the family's code, so a vendor's files live in one tree."""
+    return FAMILIES_DIR / package / 'data' / name

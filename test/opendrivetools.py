@@ -12,11 +12,11 @@ import canopen
 import pytest
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.families import DATA_DIR
+from drive_bridge.resources import family_data
 from drive_bridge.sim import SimOpenDrive
 from drive_bridge.sim.testing import SimBench, wait_until
 
-EDS = DATA_DIR / 'opendrive.eds'
+EDS = family_data('opendrive', 'opendrive.eds')
 NODE = 5
 GUARD, EMCY, SDO_RX, SDO_TX = 0x700 + NODE, 0x80 + NODE, 0x600 + NODE, 0x580 + NODE
 TPDO1, RPDO1 = 0x180 + NODE, 0x200 + NODE

@@ -10,11 +10,11 @@ import canopen
 import pytest
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.families import DATA_DIR
+from drive_bridge.resources import family_data
 from drive_bridge.sim import SimServostar
 from drive_bridge.sim.testing import SimBench, node_config, wait_until
 
-EDS = DATA_DIR / 'servostar.eds'
+EDS = family_data('servostar', 'servostar.eds')
 NODE = 1
 EMCY, GUARD, SDO_RX, SDO_TX = 0x80 + NODE, 0x700 + NODE, 0x600 + NODE, 0x580 + NODE
 TPDO2, RPDO2 = 0x280 + NODE, 0x300 + NODE

@@ -6,7 +6,7 @@ import pytest
 from canopen import ObjectDictionary
 
 from drive_bridge.families import get_family
-from drive_bridge.families.akd_parameters import AkdParameters
+from drive_bridge.families.akd.parameters import AkdParameters
 from drive_bridge.families.opendrive.parameters import OpenDriveParameters
 from drive_bridge.families.s120.parameters import S120Parameters
 from drive_bridge.families.servostar.parameters import ServostarParameters

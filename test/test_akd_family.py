@@ -20,10 +20,11 @@ from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia301.emcy import decode_emcy, describe_code
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import load_bus_config, parse_bus_config
-from drive_bridge.families import DATA_DIR, get_family
+from drive_bridge.families import get_family
 from drive_bridge.model import AxisConfig, PdoConfig
+from drive_bridge.resources import family_data
 
-AKD_EDS = DATA_DIR / 'akd.eds'
+AKD_EDS = family_data('akd', 'akd.eds')
 EXAMPLE = REPO / 'config' / 'akd_pvt_example.yaml'
 NODE = 3
 

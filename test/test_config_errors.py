@@ -1,7 +1,7 @@
 """Each kind of configuration error: the exact message names file, path, expectation and value.
 
 The configs use the generic 402 family's shipped EDS, so every object fact below is a
-fact of drive_bridge/families/data/generic402.eds.
+fact of drive_bridge/families/generic402/data/generic402.eds.
 """
 from __future__ import annotations
 

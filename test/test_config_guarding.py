@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import drive_bridge.families
 from configtools import load_yaml, problems
+from drive_bridge.resources import family_data
 
 AKD = '{node_id: 1, family: akd, axes: []'
-AKD_EDS = Path(drive_bridge.families.__file__).parent / 'data' / 'akd.eds'
+AKD_EDS = family_data('akd', 'akd.eds')
 
 
 def test_guard_time_alone_guards_the_node_with_factor_3_and_no_heartbeat(tmp_path: Path) -> None:

@@ -265,7 +265,7 @@ def test_a_pdo_slower_than_sync_is_a_finding(tmp_path: Path) -> None:
 
 def test_the_stored_eds_is_named(tmp_path: Path) -> None:
     from drive_bridge.bag.importer import import_trace
-    eds = Path(__file__).resolve().parents[1] / 'drive_bridge' / 'families' / 'data' / 'generic402.eds'
+    eds = Path(__file__).resolve().parents[1] / 'drive_bridge' / 'families' / 'generic402' / 'data' / 'generic402.eds'
     (tmp_path / 'drive.eds').write_bytes(eds.read_bytes())
     (tmp_path / 'bus.yaml').write_text(
         'bus: {interface: virtual, channel: x}\nnodes:\n'

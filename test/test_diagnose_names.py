@@ -15,7 +15,7 @@ from drive_bridge.bag.diagnose.abort_codes import abort_text
 from drive_bridge.bag.diagnose.standard_objects import ABORT_TEXTS
 
 ROOT = Path(__file__).resolve().parents[1]
-EDS = ROOT / 'drive_bridge' / 'families' / 'data' / 'generic402.eds'
+EDS = ROOT / 'drive_bridge' / 'families' / 'generic402' / 'data' / 'generic402.eds'
 
 
 def test_table_says_what_canopen_reads_for_every_object_and_subindex() -> None:

@@ -81,7 +81,8 @@ def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path)
         for _node, rpdo, tpdo in AXES:
             observer.subscribe(rpdo, record)  # the master's controlword
             observer.subscribe(tpdo, record)  # the drive's statusword
-        remote = canopen.RemoteNode(2, canopen.import_od(str(REPO / 'drive_bridge/families/data/generic402.eds'), 2))
+        eds = REPO / 'drive_bridge/families/generic402/data/generic402.eds'
+        remote = canopen.RemoteNode(2, canopen.import_od(str(eds), 2))
         observer.add_node(remote)
 
         bridge = subprocess.Popen(python('from drive_bridge.cli.bridge import bridge_main; bridge_main()',

@@ -19,7 +19,7 @@ import yaml
 from akdtools import Sniffer
 from bustools import REPO, eventually, running, unique_channel
 from drive_bridge.config import parse_bus_config
-from drive_bridge.families.akd_parameters import (
+from drive_bridge.families.akd.parameters import (
     AKD_PARAMETERS,
     ASCII_TABLE,
     AkdParameters,
@@ -222,7 +222,7 @@ def _table_lines() -> list[str]:
 
 
 def test_every_row_of_the_shipped_table_parses_in_the_bridge_and_the_simulator(bench: Bench) -> None:
-    """One table (families/data/akd_ascii_parameters.txt), read by both: no line is lost, each
+    """One table (families/akd/data/akd_ascii_parameters.txt), read by both: no line is lost, each
     row becomes an object of the simulated drive, and every readable one is read over the bus
     (the simulator answering, the bridge parsing its answer)."""
     lines = _table_lines()

@@ -12,8 +12,8 @@ from collections.abc import Iterator
 
 import pytest
 
+from drive_bridge.families.opendrive.parameter_table import decode_format
 from drive_bridge.sim import SimOpenDrive, simulator_for
-from drive_bridge.sim.opendrive.parameters import decode_format
 from drive_bridge.sim.testing import SimBench, SyncLoop, wait_until
 from opendrivetools import (
     EMCY,

@@ -16,7 +16,7 @@ from canopen.objectdictionary import ODArray, ODVariable
 from canopen.sdo.exceptions import SdoAbortedError
 
 ROOT = Path(__file__).resolve().parent.parent
-EDS = ROOT / 'drive_bridge' / 'families' / 'data' / 'generic402.eds'
+EDS = ROOT / 'drive_bridge' / 'families' / 'generic402' / 'data' / 'generic402.eds'
 OUT = ROOT / 'drive_bridge' / 'bag' / 'diagnose' / 'standard_objects.py'
 SIGNED = {0x02, 0x03, 0x04, 0x10, 0x15}  # INTEGER8/16/32/24/64, as names._SIGNED
 

@@ -3,7 +3,6 @@ cannot say; the one boundary the core talks to. Look families up by name with
 :func:`get_family`; add one with :func:`register_family` or the ``drive_bridge.families``
 entry point group."""
 from drive_bridge.families.interface import (
-    DATA_DIR,
     BootDetection,
     DriveFamily,
     IdentityMatch,
@@ -32,6 +31,6 @@ from drive_bridge.families import (
                                              servostar as _servostar,  # noqa: F401
 )
 
-__all__ = ['DATA_DIR', 'ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'IdentityMatch',
+__all__ = ['ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'IdentityMatch',
            'Liveness', 'PdoConfiguration', 'discover_families', 'families_for_identity', 'family_names', 'get_family',
            'register_family', 'unregister_family']

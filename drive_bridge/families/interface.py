@@ -48,7 +48,6 @@ from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, Posi
 if TYPE_CHECKING:
     from drive_bridge.families.parameters import ParameterAccess, ParameterPort
 
-DATA_DIR = Path(__file__).resolve().parent / 'data'
 STORE_PARAMETERS = 0x1010  # CiA 301: store parameters ("save")
 # objects that decide how a node reacts to the loss of its master or that change its link
 # (CiA 301 / 402): closed to clients unless the bus config's access.safety_objects names them

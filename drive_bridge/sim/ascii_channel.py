@@ -25,7 +25,7 @@ What the drive does, as the manual shows it and as modelled here:
   fieldbus (FBUS.REMOTE = 1)`` [4.1: "no control command over another channel"].
 
 The parameters: every ASCII parameter of akd.md §8.3 and §1.6, read from the shipped table
-(families/data/akd_ascii_parameters.txt, the manual's facts, which the bridge reads too, as
+(families/akd/data/akd_ascii_parameters.txt, the manual's facts, which the bridge reads too, as
 both read akd.eds); the simulator's own model is here: the unit names it prints (its user
 units are counts), the power-on values (:data:`SIM_VALUES`), the error texts, what FBUS.REMOTE
 and DRV.FAULTS do. Each parameter is its CANopen object, so SDO and ASCII see one
@@ -52,7 +52,7 @@ from typing import Any
 from canopen.objectdictionary import ODVariable, datatypes as dt
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.families.akd_parameters import AkdParameter, read_parameter_table
+from drive_bridge.families.akd.parameters import AkdParameter, read_parameter_table
 from drive_bridge.sim.store import ObjectStore, key
 
 ASCII_CHANNEL = 0x2026

@@ -18,14 +18,14 @@ from typing import Any
 import can
 import canopen
 
-from drive_bridge.families import DATA_DIR
 from drive_bridge.model import NodeConfig
+from drive_bridge.resources import family_data
 from drive_bridge.sim.registry import simulator_for
 from drive_bridge.sim.slave import NOTIFIER_CYCLE, SimulatedSlave
 
-GENERIC402_EDS = DATA_DIR / 'generic402.eds'
-GENERIC402_2AXIS_EDS = DATA_DIR / 'generic402_2axis.eds'
-AKD_EDS = DATA_DIR / 'akd.eds'
+GENERIC402_EDS = family_data('generic402', 'generic402.eds')
+GENERIC402_2AXIS_EDS = family_data('generic402', 'generic402_2axis.eds')
+AKD_EDS = family_data('akd', 'akd.eds')
 SYNC_COB_ID = 0x080
 
 _channels = itertools.count()

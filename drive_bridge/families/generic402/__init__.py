@@ -11,9 +11,10 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.families.generic402.pdomap import plan
-from drive_bridge.families.interface import DATA_DIR, DriveFamily, PdoPlan
+from drive_bridge.families.interface import DriveFamily, PdoPlan
 from drive_bridge.families.registry import register_family
 from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
+from drive_bridge.resources import family_data
 
 SYNC_EVERY_CYCLE = 1
 EVENT_DRIVEN = 255
@@ -40,7 +41,7 @@ class Generic402(DriveFamily):
 
     name = 'generic_402'
     description = 'CiA 402 drive (default PDO map fitted to its EDS)'
-    default_eds = DATA_DIR / 'generic402.eds'
+    default_eds = family_data('generic402', 'generic402.eds')
     max_axes = 2  # the predefined connection set has four PDOs each way
     modes_from_drive = True
 
@@ -50,7 +51,7 @@ class Generic402(DriveFamily):
         return plan(od, node_id, axes, synchronous, lambda: self.default_pdos(node_id, axes, synchronous))
 
     def eds_for(self, axis_count: int) -> Path | None:
-        return DATA_DIR / 'generic402_2axis.eds' if axis_count == 2 else self.default_eds
+        return family_data('generic402', 'generic402_2axis.eds') if axis_count == 2 else self.default_eds
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:

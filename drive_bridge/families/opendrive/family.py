@@ -1,8 +1,8 @@
 """The ``opendrive`` family: OPEN drive converters over CANopen (CiA 301 only; shared/drives/
 opendrive.md, from the drive's CAN appendix).
 
-What the bridge knows beyond the EDS (drive_bridge/families/data/opendrive.eds, written by
-tools/make_opendrive_eds.py):
+What the bridge knows beyond the EDS (drive_bridge/families/opendrive/data/opendrive.eds, written by
+families/opendrive/edsgen.py):
 
 - no CiA 402: the joint driver is :class:`~drive_bridge.families.opendrive.driver.RunLogicDriver`
   (enable = the RUN logic function, references 0x201A/0x201D and 0x201C, alarms 0x2018);
@@ -46,7 +46,7 @@ from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.families.interface import DATA_DIR, DriveFamily, Liveness
+from drive_bridge.families.interface import DriveFamily, Liveness
 from drive_bridge.families.opendrive import alarms, objects as od, representation
 from drive_bridge.families.opendrive.driver import RunLogicDriver
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
@@ -57,6 +57,7 @@ from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
 from drive_bridge.joint import JointDriver, NodeIo
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry, Timeouts
+from drive_bridge.resources import family_data
 
 log = logging.getLogger('drive_bridge.families.opendrive')
 
@@ -90,7 +91,7 @@ class OpenDrive(DriveFamily):
     # the drive keeps its last RUN and references when its master goes silent (appendix §2.4: no
     # action on a life-guarding timeout in the default firmware, no heartbeat, no RPDO timeout)
     runs_on_without_master = True
-    default_eds = DATA_DIR / 'opendrive.eds'
+    default_eds = family_data('opendrive', 'opendrive.eds')
     has_cia402 = False
     has_heartbeat = False
     uses_axis_scaling = False  # the driver scales from the axis' drive settings (n_MAX, T_nom, ...)

@@ -2,7 +2,7 @@
 CANopen interface (shared/drives/servostar-400-600.md, from the manual "CANopen SERVOSTAR
 400/600", edition 12/2009, firmware >= 6.57).
 
-What the bridge knows beyond the EDS (drive_bridge/families/data/servostar.eds):
+What the bridge knows beyond the EDS (drive_bridge/families/servostar/data/servostar.eds):
 
 - boot-up: an EMCY on 0x80 + id with 0 bytes or 8 zero bytes (DRVCNFG), no 0x700 frame, no NMT
   reset communication (a node's ``reset_communication`` defaults to false): the master waits for
@@ -40,7 +40,7 @@ from typing import Any
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, standard_strategy
-from drive_bridge.families.interface import DATA_DIR, BootDetection, DriveFamily, Liveness, PdoConfiguration
+from drive_bridge.families.interface import BootDetection, DriveFamily, Liveness, PdoConfiguration
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
@@ -51,6 +51,7 @@ from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE, Se
 from drive_bridge.families.servostar.units import DriveUnits
 from drive_bridge.joint import JointDriver, NodeIo
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
+from drive_bridge.resources import family_data
 
 log = logging.getLogger('drive_bridge.families.servostar')
 
@@ -67,7 +68,7 @@ class Servostar(DriveFamily):
         0x3505: 'ADDR, the CAN node address',
         0x3515: 'CBAUD, the CAN bit rate',
     }
-    default_eds = DATA_DIR / 'servostar.eds'
+    default_eds = family_data('servostar', 'servostar.eds')
     has_cia402 = True
     max_axes = 1
     emcy_texts = emcy.EMCY_TEXTS

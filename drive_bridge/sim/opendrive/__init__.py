@@ -1,10 +1,10 @@
 """A simulated OPEN drive (family ``opendrive``; probably TDE MACNO): a CiA DS301 node with no
 CiA 402 profile, after the drive's CANopen appendix as summarised in shared/drives/opendrive.md
-(numbers in brackets are its sections). Its EDS is drive_bridge/families/data/opendrive.eds
-(tools/make_opendrive_eds.py, whose docstring lists the readings of the object list).
+(numbers in brackets are its sections). Its EDS is drive_bridge/families/opendrive/data/opendrive.eds
+(families/opendrive/edsgen.py, whose docstring lists the readings of the object list).
 
-Modules: objects (indices, codes, abort choices), parameters (the P / C table and the format
-word layout), emcy (EMCY and 0x1003), pdo (PDO rules), motor (the motor model), logic (the
+Modules: objects (indices, codes, abort choices), the family's parameter_table (the P / C table
+and the format word layout), emcy (EMCY and 0x1003), pdo (PDO rules), motor (the motor model), logic (the
 logic input functions and their channels), quantities (actual values and their representation
 words), options, drive (the node: :class:`SimOpenDrive`, registered as the ``opendrive``
 simulator on import).

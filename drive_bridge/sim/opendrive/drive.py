@@ -11,13 +11,7 @@ from typing import Any
 import can
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.model import NodeConfig
-from drive_bridge.sim.opendrive import objects as o
-from drive_bridge.sim.opendrive.emcy import OpenDriveEmcy
-from drive_bridge.sim.opendrive.logic import TERMINAL_CONNECTIONS, LogicInputs
-from drive_bridge.sim.opendrive.motor import Motor
-from drive_bridge.sim.opendrive.options import OPENDRIVE_OPTIONS
-from drive_bridge.sim.opendrive.parameters import (
+from drive_bridge.families.opendrive.parameter_table import (
     C52,
     C63,
     CONNECTIONS,
@@ -31,6 +25,12 @@ from drive_bridge.sim.opendrive.parameters import (
     TDE,
     Parameter,
 )
+from drive_bridge.model import NodeConfig
+from drive_bridge.sim.opendrive import objects as o
+from drive_bridge.sim.opendrive.emcy import OpenDriveEmcy
+from drive_bridge.sim.opendrive.logic import TERMINAL_CONNECTIONS, LogicInputs
+from drive_bridge.sim.opendrive.motor import Motor
+from drive_bridge.sim.opendrive.options import OPENDRIVE_OPTIONS
 from drive_bridge.sim.opendrive.pdo import OpenDrivePdoEngine
 from drive_bridge.sim.opendrive.quantities import DIRECT, encode, full_scale
 from drive_bridge.sim.registry import register_simulator

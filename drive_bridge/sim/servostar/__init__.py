@@ -1,7 +1,7 @@
 """A simulated Kollmorgen SERVOSTAR 400/600 (family ``servostar``): the CiA 402 drive with the
 SERVOSTAR's own rules where a master can observe them (German manual 12/2009 as summarised in
 shared/drives/servostar-400-600.md; numbers in brackets are its sections). The object
-dictionary is families/data/servostar.eds (tools/make_servostar_eds.py, whose docstring records
+dictionary is families/servostar/data/servostar.eds (families/servostar/edsgen.py, whose docstring records
 how the manual was read).
 
 Modules: objects (indices, library, codes, units), emcy (category byte, follow-up frame), pdo

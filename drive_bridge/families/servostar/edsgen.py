@@ -1,4 +1,4 @@
-"""Write the EDS of the Kollmorgen SERVOSTAR 400/600 family: drive_bridge/families/data/servostar.eds.
+"""Write the EDS of the Kollmorgen SERVOSTAR 400/600 family: drive_bridge/families/servostar/data/servostar.eds.
 
 No EDS of the drive is at hand, so this file is built from the German manual "CANopen
 SERVOSTAR 400/600, Kommunikationsprofil" (edition 12/2009, firmware >= 6.57) as summarised
@@ -10,7 +10,7 @@ channel entries the simulator implements [8.3, 8.4], and the profile objects [8.
 
 Run it again after changing the object list::
 
-    .venv/bin/python tools/make_servostar_eds.py
+    .venv/bin/python -m drive_bridge.families.servostar.edsgen
 
 Readings (the manual is silent, garbled or self-contradictory; each choice is the
 simulator's too):
@@ -137,16 +137,11 @@ Left out although in the manual (nothing simulated behind them): 0x2026, 0x2030,
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import canopen
 from canopen.objectdictionary import ODRecord, datatypes as dt
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from edswriter import container, new_od, var, write_eds  # noqa: E402
-
-OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'servostar.eds'
+from drive_bridge.families.edswriter import Device, EdsFile, container, main, mapping_record, members, var, variable
+from drive_bridge.resources import family_data
 
 VENDOR_ID = 0x0000006A
 PRODUCT_CODE = 6  # output-stage current rating (A): SD06
@@ -232,12 +227,6 @@ def comm_record(name: str, index: int, cob_base: int) -> ODRecord:
         var('Transmission type', index, 2, U8, 'rw', 0xFF),
         var('Inhibit time', index, 3, U16, 'rw', 0),
         var('CMS priority group (compatibility)', index, 4, U8, 'rw', 0)])
-
-
-def mapping_record(name: str, index: int, entries: list[int]) -> ODRecord:
-    members = [var(f'Mapping entry {i}', index, i, U32, 'rw', entries[i - 1] if i <= len(entries) else 0)
-               for i in range(1, 9)]
-    return container(name, index, members, count_access='rw', count=len(entries))  # type: ignore[return-value]
 
 
 def pdos(od: canopen.ObjectDictionary) -> None:
@@ -413,29 +402,22 @@ def profile(od: canopen.ObjectDictionary) -> None:
         var('Interpolation time index', 0x60C2, 2, I8, 'rw', -3, True)]))
 
 
-def build() -> canopen.ObjectDictionary:
-    od = new_od('Kollmorgen (Danaher Motion)', VENDOR_ID,
+def check(reread: canopen.ObjectDictionary) -> None:
+    assert variable(reread, 0x1014).default == 0x85 and variable(reread, 0x100E).default == 0x705
+    assert variable(reread, 0x1401, 1).default == 0x305, 'RPDO COB-IDs must be relative to the node id'
+    assert 5 not in members(reread, 0x1800).subindices, 'no event timer on the SERVOSTAR'
+    assert 0x1016 not in reread and 0x1017 not in reread, 'no heartbeat on the SERVOSTAR'
+    assert variable(reread, 0x6060).access_type == 'wo'
+    assert variable(reread, 0x60C2, 2).default == -3 and variable(reread, 0x607B, 1).default == -2 ** 31
+    assert variable(reread, 0x1A01, 0).default == 8 and variable(reread, 0x1A01, 1).default == 0x31020108
+
+
+DEVICE = Device('Kollmorgen (Danaher Motion)', VENDOR_ID,
                 'SERVOSTAR 400/600 (CANopen), drive_bridge model of the 12/2009 manual', PRODUCT_CODE, REVISION,
                 (10, 20, 50, 125, 250, 500, 800, 1000),
                 simple_boot_up_slave=False)  # boot-up is an EMCY, not the 0x700 frame
-    communication(od)
-    pdos(od)
-    manufacturer(od)
-    profile(od)
-    return od
-
-
-def main() -> None:
-    reread = write_eds(build(), OUT)
-    assert reread[0x1014].default == 0x85 and reread[0x100E].default == 0x705
-    assert reread[0x1401][1].default == 0x305, 'RPDO COB-IDs must be relative to the node id'
-    assert 5 not in reread[0x1800].subindices, 'no event timer on the SERVOSTAR'
-    assert 0x1016 not in reread and 0x1017 not in reread, 'no heartbeat on the SERVOSTAR'
-    assert reread[0x6060].access_type == 'wo'
-    assert reread[0x60C2][2].default == -3 and reread[0x607B][1].default == -2 ** 31
-    assert reread[0x1A01][0].default == 8 and reread[0x1A01][1].default == 0x31020108
-    print(f'wrote {OUT} ({len(reread)} objects)')
-
+FILES = (EdsFile(family_data('servostar', 'servostar.eds'), DEVICE,
+                 (communication, pdos, manufacturer, profile), check),)
 
 if __name__ == '__main__':
-    main()
+    main(FILES)

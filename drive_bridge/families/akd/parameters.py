@@ -24,7 +24,7 @@ carrying the drive's text. Saving sends ``DRV.NVSAVE`` (the same as 0x1010:1 = "
 The table (:data:`AKD_PARAMETERS`) is every ASCII parameter the report's object dictionary
 (§8.3) and §1.6 name, with its object, data type and scaling ("1000:1": the SDO value is
 1000 x the ASCII value), access as printed (blank = "rw"), unit and flags (volatile, restart,
-choices). It is read from the shipped file :data:`ASCII_TABLE` (families/data/
+choices). It is read from the shipped file :data:`ASCII_TABLE` (families/akd/data/
 akd_ascii_parameters.txt, one parameter a line; its header names the sources), which the
 simulated AKD reads too, as both read akd.eds (:func:`read_parameter_table`; each reader names
 the user units its own way). What the bridge makes of a row:
@@ -66,7 +66,6 @@ from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
-from drive_bridge.families.interface import DATA_DIR
 from drive_bridge.families.parameters import (
     ParameterAccess,
     ParameterError,
@@ -75,6 +74,7 @@ from drive_bridge.families.parameters import (
     format_limit,
     parameter_error,
 )
+from drive_bridge.resources import family_data
 
 ASCII_CHANNEL = 0x2026
 COMMAND_SUB = 1
@@ -141,7 +141,7 @@ class AkdParameter:
         return ''
 
 
-ASCII_TABLE = DATA_DIR / 'akd_ascii_parameters.txt'  # the manual's facts, read by the bridge and the simulator
+ASCII_TABLE = family_data('akd', 'akd_ascii_parameters.txt')  # the manual's facts, read by the bridge and the simulator
 _SCALES = {'-': 0, '1': 1, '1000': 1000, 'var': -1}
 _KINDS = frozenset(_INT_RANGES) | {'text', 'cmd'}
 _ACCESS = frozenset({'rw', 'ro', 'wo', 'cmd'})

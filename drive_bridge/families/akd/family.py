@@ -1,7 +1,7 @@
 """Kollmorgen AKD servo drives over CANopen (manual rev. F, 903-200004-03; shared/drives/akd.md).
 
-What the bridge needs to know beyond the EDS (drive_bridge/families/data/akd.eds, written by
-tools/make_akd_eds.py):
+What the bridge needs to know beyond the EDS (drive_bridge/families/akd/data/akd.eds, written by
+families/akd/edsgen.py):
 
 - one axis per node; PVT is interpolation sub-mode -2 of interpolated position mode and is
   the default way to stream trajectories (``interpolation: pvt``);
@@ -43,17 +43,18 @@ from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.families.akd_parameters import (
+from drive_bridge.families.akd.parameters import (
     AKD_PARAMETERS,
     ASCII_CHANNEL,
     COMMAND_SUB,
     STORE_COMMANDS,
     AkdParameters,
 )
-from drive_bridge.families.interface import DATA_DIR, DriveFamily
+from drive_bridge.families.interface import DriveFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
+from drive_bridge.resources import family_data
 
 SYNC_EVERY_CYCLE = 1
 EVENT_DRIVEN = 255  # the AKD knows no type 254
@@ -252,7 +253,7 @@ class Akd(DriveFamily):
         0x36E5: 'FBUS.PARAM01, the CAN bit rate',
         0x36E8: 'FBUS.PARAM04, SYNC supervision (F125 after 3 missing SYNCs)',
     }
-    default_eds = DATA_DIR / 'akd.eds'
+    default_eds = family_data('akd', 'akd.eds')
     has_cia402 = True
     max_axes = 1
     emcy_texts = AKD_EMCY_TEXTS

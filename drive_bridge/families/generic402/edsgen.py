@@ -1,14 +1,13 @@
 """Write the EDS files of the generic CiA 402 drive family (one and two axes).
 
-The files in drive_bridge/families/data/ are what this script writes; they are checked in
+The files in drive_bridge/families/generic402/data/ are what this module writes; they are checked in
 so users can read and copy them. Run it again after changing the object list:
 
-    .venv/bin/python tools/make_generic402_eds.py
+    .venv/bin/python -m drive_bridge.families.generic402.edsgen
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
+from functools import partial
 
 import canopen
 from canopen.objectdictionary import datatypes as dt
@@ -16,12 +15,9 @@ from canopen.objectdictionary import datatypes as dt
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
 from drive_bridge.families import get_family
+from drive_bridge.families.edswriter import Device, EdsFile, Section, container, main, var, variable
 from drive_bridge.model import AxisConfig
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from edswriter import container, new_od, var, write_eds  # noqa: E402
-
-OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data'
+from drive_bridge.resources import family_data
 
 VENDOR_ID = 0x00000000  # no CiA vendor id: this is a simulated drive
 PRODUCT_CODE = 0x00000402
@@ -94,7 +90,7 @@ def pdo_objects(od: canopen.ObjectDictionary, axes: int) -> None:
 def axis_objects(od: canopen.ObjectDictionary, slot: int) -> None:
     i8, i16, i32 = dt.INTEGER8, dt.INTEGER16, dt.INTEGER32
     u8, u16, u32 = dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
-    a = (lambda index: obj.for_axis(index, slot))
+    a = partial(obj.for_axis, slot=slot)
     prefix = f'Axis {slot} ' if slot else ''
     supported = sum(1 << SUPPORT_BITS[m] for m in SUPPORTED_MODES)
     simple = [
@@ -167,22 +163,19 @@ def axis_objects(od: canopen.ObjectDictionary, slot: int) -> None:
         var('Buffer clear', a(obj.INTERPOLATION_DATA_CONFIGURATION), 6, u8, 'wo', 0)]))
 
 
-def build(axes: int) -> canopen.ObjectDictionary:
-    od = new_od('drive_bridge', VENDOR_ID, f'Simulated CiA 402 drive, {axes} axis', PRODUCT_CODE, REVISION,
-                (10, 20, 50, 125, 250, 500, 800, 1000))
-    communication_objects(od, axes)
-    pdo_objects(od, axes)
-    for slot in range(axes):
-        axis_objects(od, slot)
-    return od
+def check(reread: canopen.ObjectDictionary) -> None:
+    assert variable(reread, 0x1014).default == 0x85, 'COB-ID EMCY must be relative to the node id'
 
 
-def main() -> None:
-    for axes, name in ((1, 'generic402.eds'), (2, 'generic402_2axis.eds')):
-        reread = write_eds(build(axes), OUT / name)
-        assert reread[0x1014].default == 0x85, 'COB-ID EMCY must be relative to the node id'
-        print(f'wrote {OUT / name} ({len(reread)} objects)')
+def eds_file(axes: int, name: str) -> EdsFile:
+    device = Device('drive_bridge', VENDOR_ID, f'Simulated CiA 402 drive, {axes} axis', PRODUCT_CODE, REVISION,
+                    (10, 20, 50, 125, 250, 500, 800, 1000))
+    sections: tuple[Section, ...] = (partial(communication_objects, axes=axes), partial(pdo_objects, axes=axes),
+                                     *(partial(axis_objects, slot=slot) for slot in range(axes)))
+    return EdsFile(family_data('generic402', name), device, sections, check)
 
+
+FILES = (eds_file(1, 'generic402.eds'), eds_file(2, 'generic402_2axis.eds'))
 
 if __name__ == '__main__':
-    main()
+    main(FILES)

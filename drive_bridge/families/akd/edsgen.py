@@ -1,4 +1,4 @@
-"""Write the EDS of the Kollmorgen AKD drive family: drive_bridge/families/data/akd.eds.
+"""Write the EDS of the Kollmorgen AKD drive family: drive_bridge/families/akd/data/akd.eds.
 
 Kollmorgen publishes no AKD EDS that we could find (shared/realdata/SOURCES.md), so this
 file is built from the AKD CANopen manual (rev. F, 903-200004-03) as summarised in
@@ -9,7 +9,7 @@ motor data, Wake & Shake, ...) is left out: the simulator has nothing behind it.
 
 Run it again after changing the object list::
 
-    .venv/bin/python tools/make_akd_eds.py
+    .venv/bin/python -m drive_bridge.families.akd.edsgen
 
 Defaults are the manual's where it gives one (the PDO maps are the AKD's *factory* maps,
 §6.3.1.3/§6.3.2.3, not the bridge's default map: the manual's examples rely on them).
@@ -60,20 +60,15 @@ Other choices where the manual is silent or self-contradictory:
 - Left out although in the manual (nothing simulated behind them): touch probe 0x60B8-0x60BD
   and 0x60D0, latches 0x20A0-0x20A6, the 0x1026 console, 0x2071 / 0x2077.
 - 0x2026 is the ASCII channel (sub 1 command WO, sub 2 response RO, 4 characters each, §9.11):
-  the family's parameter access (families/akd_parameters.py) talks through it.
+  the family's parameter access (families/akd/parameters.py) talks through it.
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import canopen
-from canopen.objectdictionary import ODRecord, datatypes as dt
+from canopen.objectdictionary import datatypes as dt
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from edswriter import container, new_od, var, write_eds  # noqa: E402
-
-OUT = Path(__file__).resolve().parent.parent / 'drive_bridge' / 'families' / 'data' / 'akd.eds'
+from drive_bridge.families.edswriter import Device, EdsFile, container, main, mapping_record, members, var, variable
+from drive_bridge.resources import family_data
 
 VENDOR_ID = 0x0000006A  # "Danaher Motion" (§6.2.1.17)
 PRODUCT_CODE = int.from_bytes(b'M006', 'little')
@@ -138,12 +133,6 @@ def pdos(od: canopen.ObjectDictionary) -> None:
             var('Reserved', comm, 4, U8, 'const', 0),
             var('Event timer', comm, 5, U16, 'rw', 0)]))
         od.add_object(mapping_record(f'TPDO{n} mapping parameter', mapping, FACTORY_TPDOS[n]))
-
-
-def mapping_record(name: str, index: int, entries: list[int]) -> ODRecord:
-    members = [var(f'Mapping entry {i}', index, i, U32, 'rw', entries[i - 1] if i <= len(entries) else 0)
-               for i in range(1, 9)]
-    return container(name, index, members, count_access='rw', count=len(entries))  # type: ignore[return-value]
 
 
 def manufacturer(od: canopen.ObjectDictionary) -> None:
@@ -252,25 +241,17 @@ def profile(od: canopen.ObjectDictionary) -> None:
         var('Bit mask', 0x60FE, 2, U32, 'rw', 0)], array=True))
 
 
-def build() -> canopen.ObjectDictionary:
-    od = new_od('Kollmorgen (Danaher Motion)', VENDOR_ID,
+def check(reread: canopen.ObjectDictionary) -> None:
+    assert variable(reread, 0x1014).default == 0x85, 'COB-ID EMCY must be relative to the node id'
+    assert variable(reread, 0x1401, 1).default == 0x305, 'RPDO COB-IDs must be relative to the node id'
+    assert variable(reread, 0x60C2, 2).default == -3 and variable(reread, 0x60C0).min == -2
+    assert 3 not in members(reread, 0x1400).subindices, 'AKD RPDO communication records have sub0..2 only'
+
+
+DEVICE = Device('Kollmorgen (Danaher Motion)', VENDOR_ID,
                 'AKD servo drive (CANopen), drive_bridge model of manual rev. F', PRODUCT_CODE, REVISION,
                 (125, 250, 500, 1000))
-    communication(od)
-    pdos(od)
-    manufacturer(od)
-    profile(od)
-    return od
-
-
-def main() -> None:
-    reread = write_eds(build(), OUT)
-    assert reread[0x1014].default == 0x85, 'COB-ID EMCY must be relative to the node id'
-    assert reread[0x1401][1].default == 0x305, 'RPDO COB-IDs must be relative to the node id'
-    assert reread[0x60C2][2].default == -3 and reread[0x60C0].min == -2
-    assert 3 not in reread[0x1400].subindices, 'AKD RPDO communication records have sub0..2 only'
-    print(f'wrote {OUT} ({len(reread)} objects)')
-
+FILES = (EdsFile(family_data('akd', 'akd.eds'), DEVICE, (communication, pdos, manufacturer, profile), check),)
 
 if __name__ == '__main__':
-    main()
+    main(FILES)

@@ -1,4 +1,4 @@
-"""Write the EDS of the OPEN drive family (probably TDE MACNO): drive_bridge/families/data/opendrive.eds.
+"""Write the EDS of the OPEN drive family (probably TDE MACNO): drive_bridge/families/opendrive/data/opendrive.eds.
 
 No EDS of the drive is published that we know of, so this file is built from the drive's
 CANopen appendix ("Allegato CAN BUS", Italian) as summarised in shared/drives/opendrive.md
@@ -8,7 +8,7 @@ type, access and PDO-mappability the appendix gives. CiA DS301 only: no CiA 402 
 
 Run it again after changing the object list::
 
-    .venv/bin/python tools/make_opendrive_eds.py
+    .venv/bin/python -m drive_bridge.families.opendrive.edsgen
 
 Readings (the appendix is silent or ambiguous; each choice is the simulator's too):
 
@@ -65,7 +65,7 @@ Readings (the appendix is silent or ambiguous; each choice is the simulator's to
 - 0x2007 / 0x2008 sensor codes: 1 (incremental encoder) for both, so firmware and board
   agree; the appendix gives no value.
 - 0x200D Tab_par / 0x200E Tab_con defaults: the simulator's parameter table
-  (drive_bridge/sim/opendrive/parameters.py): P162 = 1, C48 = 0, C52 = 1, C63 = 0, P60 = 0,
+  (drive_bridge/families/opendrive/parameter_table.py): P162 = 1, C48 = 0, C52 = 1, C63 = 0, P60 = 0,
   P163 = 0xFFFF (read as -1 in the INT16 array), the example formats of [6.6]-[6.10]; the
   others 0.
 - Baud rates: the C48 codes 1 Mbit/s, 800, 500, 250, 125, 50, 20, 10 kbit/s (no 100 kbit/s
@@ -73,19 +73,12 @@ Readings (the appendix is silent or ambiguous; each choice is the simulator's to
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import canopen
-from canopen.objectdictionary import ODRecord, datatypes as dt
+from canopen.objectdictionary import datatypes as dt
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(ROOT))
-from drive_bridge.sim.opendrive.parameters import CONNECTIONS, PARAMETERS  # noqa: E402
-from edswriter import container, new_od, var, write_eds  # noqa: E402
-
-OUT = ROOT / 'drive_bridge' / 'families' / 'data' / 'opendrive.eds'
+from drive_bridge.families.edswriter import Device, EdsFile, container, main, mapping_record, members, var, variable
+from drive_bridge.families.opendrive.parameter_table import CONNECTIONS, PARAMETERS
+from drive_bridge.resources import family_data
 
 I16, U8, U16, U32 = dt.INTEGER16, dt.UNSIGNED8, dt.UNSIGNED16, dt.UNSIGNED32
 VS, DOMAIN = dt.VISIBLE_STRING, dt.DOMAIN
@@ -150,11 +143,6 @@ def pdos(od: canopen.ObjectDictionary) -> None:
         od.add_object(mapping_record(f'TPDO{n} mapping parameter', mapping))
 
 
-def mapping_record(name: str, index: int) -> ODRecord:
-    members = [var(f'Mapping entry {i}', index, i, U32, 'rw', 0) for i in range(1, 9)]
-    return container(name, index, members, count_access='rw', count=0)  # type: ignore[return-value]
-
-
 def array(name: str, index: int, count: int, access: str, mappable: bool,
           defaults: dict[int, int] | None = None, data_type: int = I16) -> canopen.objectdictionary.ODArray:
     """An INT16 array of ``count`` elements: element k at sub-index k + 1."""
@@ -213,26 +201,19 @@ def manufacturer(od: canopen.ObjectDictionary) -> None:
     add(var('Tab_formati_extra (extra parameter formats, 100 x 5 words)', 0x2026, 0, DOMAIN, 'ro', None))
 
 
-def build() -> canopen.ObjectDictionary:
-    od = new_od('unknown (probably TDE MACNO)', 0,
-                'OPEN drive (CANopen DS301), drive_bridge model of the CAN bus appendix', 0, 0, BAUD_RATES_KBIT)
-    communication(od)
-    pdos(od)
-    manufacturer(od)
-    return od
-
-
-def main() -> None:
-    reread = write_eds(build(), OUT)
+def check(reread: canopen.ObjectDictionary) -> None:
     assert 0x1016 not in reread and 0x1017 not in reread, 'the OPEN drive has no heartbeat'
-    assert 3 not in reread[0x1400].subindices, 'RPDO communication records have sub 0..2 only'
-    assert reread[0x1014].default == 0x85, 'COB-ID EMCY must be relative to the node id'
-    assert reread[0x1400][1].default == 0x80000205, 'PDOs are not valid at power-on'
-    assert reread[0x2016][1].default == 32767, 'fieldbus RUN starts high'
-    assert not reread[0x200D][1].pdo_mappable and reread[0x2012][1].pdo_mappable
-    assert len(reread[0x1003].subindices) == 33
-    print(f'wrote {OUT} ({len(reread)} objects)')
+    assert 3 not in members(reread, 0x1400).subindices, 'RPDO communication records have sub 0..2 only'
+    assert variable(reread, 0x1014).default == 0x85, 'COB-ID EMCY must be relative to the node id'
+    assert variable(reread, 0x1400, 1).default == 0x80000205, 'PDOs are not valid at power-on'
+    assert variable(reread, 0x2016, 1).default == 32767, 'fieldbus RUN starts high'
+    assert not variable(reread, 0x200D, 1).pdo_mappable and variable(reread, 0x2012, 1).pdo_mappable
+    assert len(members(reread, 0x1003).subindices) == 33
 
+
+DEVICE = Device('unknown (probably TDE MACNO)', 0,
+                'OPEN drive (CANopen DS301), drive_bridge model of the CAN bus appendix', 0, 0, BAUD_RATES_KBIT)
+FILES = (EdsFile(family_data('opendrive', 'opendrive.eds'), DEVICE, (communication, pdos, manufacturer), check),)
 
 if __name__ == '__main__':
-    main()
+    main(FILES)

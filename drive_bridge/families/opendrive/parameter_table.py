@@ -25,7 +25,7 @@ Which parameter is which (n_MAX, T_nom, pole pairs, f_pwm, ...) is not in the ap
 besides the ones it names (P54-P56, P60, P99, P162, P163, C1-C8, C14-C16, C48, C52, C63)
 the table holds a few ordinary parameters with the example formats, so that every class
 and representation is present. The drive's constants are simulator options instead.
-This module is plain data: tools/make_opendrive_eds.py takes the EDS defaults from it.
+This module is plain data: the simulator reads it, and edsgen takes the EDS defaults from it.
 """
 from __future__ import annotations
 
