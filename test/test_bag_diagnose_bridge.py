@@ -33,7 +33,8 @@ TOLERANCE = 0.3  # s between the injection (wall clock) and the finding's time
 
 def one(findings: list[dict[str, Any]], kind: str, node: int, text: str = '') -> dict[str, Any]:
     hits = [f for f in findings if f['kind'] == kind and f['node'] == node and text in f['what']]
-    assert len(hits) == 1, (kind, node, text, [f for f in findings if f['node'] == node])
+    assert len(hits) == 1, (kind, node, text, [(f['kind'], f['time'], f['what'], f['cause'], f['outcome'])
+                                               for f in findings if f['node'] == node])
     return hits[0]
 
 
@@ -103,5 +104,7 @@ def test_a_bag_the_bridge_recorded_names_each_injected_fault(ros: RosHarness, tm
     assert rebooted['outcome'].startswith('recovered: operational again')  # the bridge booted it again
     near(rebooted, 'reboot')
     # the bridge's own conduct is no finding: its heartbeat (node 127) and its disabling the faulted axis
-    assert not [f for f in findings if f['kind'] in ('config-node-extra', 'cia402-command')], findings
+    own = [(f['kind'], f['node'], f['time'], f['what'], f['cause']) for f in findings
+           if f['kind'] in ('config-node-extra', 'cia402-command')]
+    assert not own, own
     assert 'base_joint' in out.getvalue() or 'node 2' in out.getvalue(), out.getvalue()

@@ -136,7 +136,7 @@ class Handlers:
             return None
         if isinstance(body, Query) and body.what == 'operational':
             master.wait_until_operational(body.timeout, list(body.joints) or None)
-            return None
+            return axis_states(list(master.axes.values()))  # so the caller's proxies show the booted axes
         raise BoundaryError(f'{type(body).__name__} is not a request the bus process serves')
 
     def _axis(self, body: AxisIntent) -> object:
