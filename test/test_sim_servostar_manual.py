@@ -5,6 +5,8 @@ manual's, the facts document's in brackets): a raw tester on the bus, frames in 
 - EMCY: the error register bits and the follow-up frame of §6.1.10 and §6.2.1.1 [9.9, 5.4];
 - the status byte 2080h:09 (TRJSTAT byte 2 = 1002h bits 16..23) while a homing of the CiA 402
   mode 6 and a profile-position move run and when they end, as §6.1.6 prints it [9.6];
+- the same byte around a motion task of mode FFh (§6.1.5), referenced first as §6.1.4 asks of a
+  linear axis [9.4, 9.5];
 - 1002h bit 16 (motion task active) and bit 17 (reference set) around a homing [3.5, 4.7].
 """
 from __future__ import annotations
@@ -155,33 +157,44 @@ def test_homing_mode_6_and_profile_position_as_6_1_6(bench: SimBench) -> None:
 
 
 def test_motion_task_status_byte_while_it_runs_and_at_the_target(bench: SimBench) -> None:
-    """Mode FFh, direct motion task 0 started by RPDO 35 [9.5]: 2080h:09 bit 0 (1002h bit 16,
-    motion task active) while it runs, then bit 0 = 0 and bit 3 (in position) at the target."""
+    """§6.1.5 (mode FFh, 2nd RPDO <- PDO 35 ``2F 01 26 00 23 ...``, ``301: 00 00`` starts task 0)
+    with the TPDO 1 of §6.1.6 (statusword + 2080h:09). A linear axis is referenced before it
+    positions (§6.1.4): here by the manufacturer homing F9h, type 0 (reference point at the actual
+    position). The status byte then reads as §6.1.6 prints it: ``03h`` (task active, reference
+    set) while the task runs and ``0Ah`` (reference set, in position) at the target [9.4-9.6]."""
     sim, node = add(bench)
     exchange(bench, '2F 01 26 00 23 00 00 00', '60 01 26 00 00 00 00 00')  # 2nd RPDO <- PDO 35
     exchange(bench, '2F 00 2A 00 25 00 00 00', '60 00 2A 00 00 00 00 00')  # 1st TPDO <- PDO 37
     exchange(bench, '23 00 1A 00 00 00 00 00', '60 00 1A 00 00 00 00 00')
     exchange(bench, '23 00 1A 01 10 00 41 60', '60 00 1A 01 00 00 00 00')
     exchange(bench, '23 00 1A 02 08 09 80 20', '60 00 1A 02 00 00 00 00')
-    set_mode(sim, node, -1)
-    write(node, 0x2022, 1, 'i', 2 ** 22)  # 4 revolutions, absolute
-    write(node, 0x2022, 2, 'H', 2000)  # x 4000 counts/s: about 7.6 rev/s
     bench.nmt(0x01, NODE)
     enable(sim, node)
+    exchange(bench, '2F 60 60 00 F9 00 00 00', '60 60 60 00 00 00 00 00')  # §6.1.4: mode homing F9h
+    wait_until(lambda: read(node, 0x6061, 0, 'b') == -7, 2.0, '0x6061 = F9h')
+    exchange(bench, '2F 24 20 01 00 00 00 00', '60 24 20 01 00 00 00 00')  # type 0: here
+    exchange(bench, '2B 40 60 00 1F 00 00 00', '60 40 60 00 00 00 00 00')  # start
+    wait_until(lambda: read(node, 0x1002, 0, 'I') & 0x00030000 == 0x00020000, 1.0, 'reference set')
+    exchange(bench, '2B 40 60 00 0F 00 00 00', '60 40 60 00 00 00 00 00')
+    exchange(bench, '2F 60 60 00 FF 00 00 00', '60 60 60 00 00 00 00 00')  # §6.1.5: position mode
+    wait_until(lambda: read(node, 0x6061, 0, 'b') == -1, 2.0, '0x6061 = FFh')
+    write(node, 0x2022, 1, 'i', 2 ** 22)  # 4 revolutions, absolute
+    write(node, 0x2022, 2, 'H', 2000)  # x 4000 counts/s: about 7.6 rev/s
     start = time.monotonic()
     bench.send(RPDO2, h('00 00'))  # start task 0
     wait_until(lambda: any(byte & TASK_ACTIVE for _sw, byte in status_frames(bench, start)), 1.0, 'task runs')
-    running = next(byte for _sw, byte in status_frames(bench, start) if byte & TASK_ACTIVE)
-    assert running & (TASK_ACTIVE | IN_POSITION) == TASK_ACTIVE
+    running = [byte for _sw, byte in status_frames(bench, start) if byte & TASK_ACTIVE]
+    assert set(running) == {0x03}, running  # 03h: task active, reference set
     wait_until(lambda: (frames := status_frames(bench, start)) != [] and frames[-1][1] & 0x09 == IN_POSITION, 3.0,
                'target reached')
-    assert read(node, 0x1002, 0, 'I') & 0x00090000 == 0x00080000
+    assert status_frames(bench, start)[-1][1] == 0x0A  # 0Ah: reference set, in position
+    assert read(node, 0x1002, 0, 'I') & 0x000B0000 == 0x000A0000
     assert abs(sim.axis_star.position - 2 ** 22) < 50
 
 
 def test_manufacturer_homing_sets_the_reference_at_its_end(bench: SimBench) -> None:
-    """Mode F9h [9.4]: 1002h bit 16 (task active) while the homing runs, bit 17 (reference set)
-    rises as it ends and bit 16 falls."""
+    """Mode F9h, §6.1.4 [9.4]: 1002h bit 16 (task active) while the homing runs, bit 17
+    (reference set) rises as it ends and bit 16 falls."""
     sim, node = add(bench, initial_position=2 ** 22)  # 4 revolutions from the switch: VREF 0 is VLIM / 10
     set_mode(sim, node, -7)
     write(node, 0x2024, 1, 'B', 1)  # homing to the reference switch
