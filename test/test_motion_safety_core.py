@@ -74,8 +74,10 @@ def test_a_past_stamp_drops_the_points_over_and_blends_from_the_current_state() 
 
 
 def test_a_huge_value_overflows_into_a_refusal_not_a_pass() -> None:
-    with pytest.raises(TrajectoryError, match=r'j (reaches|needs) .* beyond its'):
-        planned([TrajectoryPoint(1.0, (0.1,), (0.0,), (1e300,))])
+    with pytest.raises(TrajectoryError, match=r'point 0: acceleration 1e\+300 of j exceeds its limit 10'):
+        planned([TrajectoryPoint(1.0, (0.1,), (0.0,), (1e300,))])  # named at the waypoint
+    with pytest.raises(TrajectoryError, match=r'j (reaches|needs) .* beyond its'):  # stretching cannot cure it
+        planned([TrajectoryPoint(1.0, (0.1,), (0.0,), (1e300,))], scale=True)
 
 
 def test_the_drives_own_limits_fill_what_the_config_leaves_out_and_are_said_once() -> None:
