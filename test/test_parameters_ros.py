@@ -117,3 +117,14 @@ def test_safety_parameters_and_objects_are_closed_to_clients_by_default(setup: t
     assert not refused.success and 'access.safety_objects' in refused.message and 'FBUS.PARAM01' in refused.message
     assert (drive.value(0x36E5), drive.value(0x36E8)) == before
 
+
+@pytest.mark.parametrize('text', ['nan', 'inf', '-inf', '1e300', '-1e300'])
+def test_a_non_finite_or_huge_number_as_text_is_refused_naming_it(setup: tuple[RosHarness, BusNode],
+                                                                  text: str) -> None:
+    ros, bridge = setup
+    drive = bridge.simulation.drive(1)
+    before = drive.value(0x3501)
+    for parameter in ('DRV.ACC', 'MOTOR.ICONT'):  # an integer and a decimal parameter
+        refused = call(ros, ParamWrite, 'param_write', joint='joint1', parameter=parameter, value=text)
+        assert not refused.success and parameter in refused.message, (parameter, text, refused.message)
+    assert drive.value(0x3501) == before
