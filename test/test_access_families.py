@@ -1,8 +1,12 @@
-"""Which writes store or restore parameters, as each drive family answers (the hooks the
-``access.store_restore`` and ``access.param_save`` rules ask; no bus)."""
+"""Which writes store or restore parameters, and which decide a drive's reaction to a lost
+master or change its link, as each drive family answers (the hooks the ``access.store_restore``,
+``access.param_save`` and ``access.safety_objects`` rules ask; no bus)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
+import yaml
 from canopen import ObjectDictionary
 
 from drive_bridge.families import get_family
@@ -11,6 +15,8 @@ from drive_bridge.families.opendrive.parameters import OpenDriveParameters
 from drive_bridge.families.s120.parameters import S120Parameters
 from drive_bridge.families.servostar.parameters import ServostarParameters
 from drive_bridge.model import AxisConfig, NodeConfig
+
+CONFIG = Path(__file__).resolve().parent.parent / 'config'
 
 
 class Port:
@@ -65,3 +71,42 @@ def test_parameter_accesses_name_their_save_and_load_commands() -> None:
     assert servostar.stores('save') and servostar.stores('RSTVAR') and not servostar.stores('VLIM')
     opendrive = OpenDriveParameters(port, 0)
     assert opendrive.stores('C63') and not opendrive.stores('P63') and not opendrive.stores('C62')
+
+
+@pytest.mark.parametrize('family, safety, plain', [
+    ('generic_402', [(0x6007, 0), (0x6807, 0), (0x1005, 0), (0x100C, 0), (0x100D, 0), (0x1016, 1), (0x1017, 0),
+                     (0x1029, 1)], [(0x6040, 0), (0x2000, 0), (0x1018, 1)]),
+    ('akd', [(0x6007, 0), (0x36E5, 0), (0x36E8, 0)], [(0x3501, 0), (0x2026, 1)]),
+    ('sinamics_s120', [(0x6007, 0), (0x41C1, 0), (0x419A, 0), (0x419C, 0), (0x419E, 0), (0x41A1, 0), (0x41AC, 0),
+                       (0x41AE, 0)], [(0x27D0, 0), (0x41B6, 0)]),
+    ('servostar', [(0x100C, 0), (0x3505, 1), (0x3515, 1)], [(0x3556, 1), (0x3501, 1)]),
+])
+def test_each_family_names_its_safety_objects(family: str, safety: list[tuple[int, int]],
+                                              plain: list[tuple[int, int]]) -> None:
+    """The objects that decide a drive's reaction to a lost master or change its link (issue 20)."""
+    config = node(family)
+    assert all(get_family(family).safety_object(config, *obj) for obj in safety), family
+    assert not any(get_family(family).safety_object(config, *obj) for obj in plain), family
+
+
+def test_opendrive_safety_parameters_follow_the_array_offset() -> None:
+    family = get_family('opendrive')
+    drive = yaml.safe_load((CONFIG / 'opendrive_example.yaml').read_text())['nodes']['opendrive']['axes'][0]['drive']
+    zero, one = node('opendrive', **{**drive, 'array_offset': 0}), node('opendrive', **{**drive, 'array_offset': 1})
+    assert 'node id' in (family.safety_object(zero, 0x200D, 162) or '')
+    assert 'bit rate' in (family.safety_object(zero, 0x200E, 48) or '')
+    assert family.safety_object(one, 0x200D, 163) and family.safety_object(one, 0x200E, 49)
+    assert not family.safety_object(one, 0x200D, 162)
+
+
+def test_parameter_accesses_name_their_safety_parameters() -> None:
+    port = Port()
+    akd = AkdParameters(port)
+    assert akd.safety('FBUS.PARAM01') and akd.safety(' fbus.param04 ') and not akd.safety('DRV.ACC')
+    s120 = S120Parameters(port, lambda slot: 2)
+    assert all(s120.safety(f'p{n}') for n in (8641, 8602, 8604, 8606, 8609, 8620, 8622))
+    assert not s120.safety('p2000')
+    servostar = ServostarParameters(port)
+    assert servostar.safety('ADDR') and servostar.safety('cbaud') and not servostar.safety('VLIM')
+    opendrive = OpenDriveParameters(port, 0)
+    assert opendrive.safety('P162') and opendrive.safety('C48') and not opendrive.safety('P163')

@@ -3,7 +3,9 @@ number and a wrong type to every parameter, and the non-finite and huge values t
 field of every topic, service request and goal the node takes. At the end the node is alive
 and streaming /joint_states, and every bad value got a refusal that names it (the parameter, or
 the field and value). Integer fields (node ids, indices, Duration's sec/nanosec) cannot carry
-these values over the wire: the message types refuse them at the client."""
+non-finite values over the wire: the message types refuse them at the client; an SDO value
+beyond its data type is refused naming it. A trajectory point's effort is not read by the
+bridge: a finite one is accepted, a non-finite one refused."""
 from __future__ import annotations
 
 import math
@@ -94,9 +96,13 @@ def _topics(demo: Demo) -> None:
             demo.trajectories.publish(JointTrajectory(joint_names=['base_joint'], points=[point]))
             name = {'positions': 'position', 'velocities': 'velocity', 'accelerations': 'acceleration',
                     'effort': 'effort'}[field]
-            expected.append(('joint_trajectory', f'{name} of base_joint is {value}' if not math.isfinite(value)
-                             and field != 'effort' else f'effort[0] is {value}' if field == 'effort' and
-                             not math.isfinite(value) else text(value)))
+            if field == 'effort':  # not read: only a non-finite one is refused
+                if not math.isfinite(value):
+                    expected.append(('joint_trajectory', f'effort[0] is {value}'))
+            elif math.isfinite(value):  # each refusal names its own field and value
+                expected.append(('joint_trajectory', f'{name} {text(value)} of base_joint'))
+            else:
+                expected.append(('joint_trajectory', f'{name} of base_joint is {value}'))
         time.sleep(0.05)
     for topic, fragment in expected:
         wait_for(lambda: next((e for e in demo.errors if topic in e and fragment in e), None), 5,
@@ -114,6 +120,15 @@ def _services(demo: Demo) -> None:
         reply = demo.call(SdoWrite, 'sdo_write', node_id=2, index=0x2000, subindex=0,
                           value=SdoValue(data_type=SdoValue.REAL32, float_value=value))
         assert not reply.success and f'value.float_value is {value}' in reply.message, reply.message
+    for fields, fragment in [*((dict(data_type=SdoValue.REAL32, float_value=v), 'cannot encode as REAL32')
+                               for v in HUGE),
+                             *((dict(data_type=SdoValue.INTEGER16, int_value=v), f'{v} is outside INTEGER16')
+                               for v in (2 ** 62, -2 ** 62)),
+                             (dict(data_type=SdoValue.UNSIGNED16, uint_value=2 ** 63),
+                              f'{2 ** 63} is outside UNSIGNED16'),
+                             (dict(data_type=SdoValue.INTEGER8, int_value=-1000), '-1000 is outside INTEGER8')]:
+        reply = demo.call(SdoWrite, 'sdo_write', node_id=2, index=0x2000, subindex=0, value=SdoValue(**fields))
+        assert not reply.success and fragment in reply.message, (fields, reply.message)
 
 
 def _goals(demo: Demo) -> None:
@@ -132,6 +147,19 @@ def _goals(demo: Demo) -> None:
         goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=['base_joint'], points=[point]))
         answer = result(goal)
         assert answer.error_code == FollowJointTrajectory.Result.INVALID_GOAL and text(value) in answer.error_string
+        for field, name in (('velocities', 'velocity'), ('accelerations', 'acceleration'), ('effort', 'effort')):
+            if field == 'effort' and math.isfinite(value):
+                continue  # not read: a finite effort is accepted
+            point = JointTrajectoryPoint(positions=[here], velocities=[0.0], time_from_start=Duration(sec=1))
+            if field == 'accelerations':
+                point.accelerations = [0.0]
+            setattr(point, field, [value])
+            goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=['base_joint'], points=[point]))
+            answer = result(goal)
+            fragment = (f'effort[0] is {value}' if field == 'effort' else f'{name} of base_joint is {value}'
+                        if not math.isfinite(value) else f'{name} {text(value)} of base_joint')
+            assert answer.error_code == FollowJointTrajectory.Result.INVALID_GOAL, (field, value, answer.error_string)
+            assert fragment in answer.error_string, (field, value, answer.error_string)
         # tolerances follow control_msgs (> 0 checked, 0 / -1 not, an infinity "unbounded"): NaN means
         # nothing and is refused; an acceleration tolerance cannot be checked (no drive reports one)
         for kind in ('path', 'goal'):

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from bustools import DEMO, config_from, demo_data, eventually, running, unique_channel
+from drive_bridge.cia402.drive_limits import describe
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
 from drive_bridge.master.events import EventKind
@@ -74,8 +75,10 @@ def test_a_past_stamp_drops_the_points_over_and_blends_from_the_current_state() 
 
 
 def test_a_huge_value_overflows_into_a_refusal_not_a_pass() -> None:
-    with pytest.raises(TrajectoryError, match=r'j (reaches|needs) .* beyond its'):
-        planned([TrajectoryPoint(1.0, (0.1,), (0.0,), (1e300,))])
+    with pytest.raises(TrajectoryError, match=r'point 0: acceleration 1e\+300 of j exceeds its limit 10'):
+        planned([TrajectoryPoint(1.0, (0.1,), (0.0,), (1e300,))])  # named at the waypoint
+    with pytest.raises(TrajectoryError, match=r'j (reaches|needs) .* beyond its'):  # stretching cannot cure it
+        planned([TrajectoryPoint(1.0, (0.1,), (0.0,), (1e300,))], scale=True)
 
 
 def test_the_drives_own_limits_fill_what_the_config_leaves_out_and_are_said_once() -> None:
@@ -87,6 +90,28 @@ def test_the_drives_own_limits_fill_what_the_config_leaves_out_and_are_said_once
         assert limits.sources['max_acceleration'] == 'drive 0x60C5'
         said = [e.message for e in master.events if 'joint base_joint: limits checked' in e.message]
         assert len(said) == 1 and 'acceleration 19.1748 (drive 0x60C5)' in said[0]
+
+
+def test_a_joint_without_a_velocity_limit_is_said_at_start_and_with_each_trajectory_naming_the_key() -> None:
+    unlimited = {'j': AxisLimits(-3.1, 3.1, None, 10.0)}
+    assert 'no velocity limit (limits.max_velocity not set' in describe('j', unlimited['j'])
+    assert 'no velocity limit' not in describe('j', LIMITS['j'])
+    trajectory = Trajectory(('j',), (TrajectoryPoint(1.0, (0.5,)),))
+    result = plan(trajectory, 100.0, 100.0, lambda _t: at(0.0), unlimited, False, 'test',
+                  arrays=validate(trajectory, unlimited, 'test'))
+    assert len(result.warnings) == 1 and 'joint j has no velocity limit' in result.warnings[0]
+    assert 'limits.max_velocity' in result.warnings[0]
+    assert not planned([TrajectoryPoint(1.0, (0.5,))]).warnings  # type: ignore[attr-defined]
+    # the configuration leaves it out, the drive has one (0x607F = 0x6080 = 200,000 counts/s in
+    # the demo's EDS): the drive's is checked, and nothing is left unlimited
+    data = demo_data()
+    del data['nodes']['base_drive']['axes'][0]['limits']['max_velocity']
+    with running(config_from(data)) as (master, _sim):
+        limits = master.axes['base_joint'].config.limits
+        assert limits.sources['max_velocity'] == 'drive 0x607F'  # both 200,000: the first of the pair
+        assert limits.max_velocity == pytest.approx(200_000 * 2 * math.pi / 65536 / 10)
+        said = [e.message for e in master.events if 'joint base_joint: limits checked' in e.message]
+        assert len(said) == 1 and 'velocity 1.91748 (drive 0x607F)' in said[0] and 'no velocity limit' not in said[0]
 
 
 def test_on_violation_quick_stop_stops_the_axis_and_a_refused_pvt_point_is_never_pushed() -> None:

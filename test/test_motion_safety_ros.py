@@ -13,9 +13,11 @@ from typing import Any
 
 import pytest
 from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.msg import AxisStates, SdoValue
-from drive_bridge_interfaces.srv import AxisCommand, SdoWrite, SetMode
+from drive_bridge_interfaces.srv import AxisCommand, SdoRead, SdoWrite, SetMode
+from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
@@ -24,8 +26,11 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from bridgetools import LocalSniffer, bridge_with_sim
 from bustools import demo_data
+from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
+from drive_bridge.ros import parameters as node_parameters
+from drive_bridge.ros.callback_guard import failures_of
 from drive_bridge.ros.frames import stamp_from_seconds
 from rostools import RosHarness, wait_for
 
@@ -191,6 +196,16 @@ def test_3_timeouts_are_bounded_and_an_unconfirmed_mode_is_undone(demo: Demo) ->
     assert not failed.success and 'the previous mode csp is restored' in failed.message, failed.message
     assert demo.node.master.axes['base_joint'].mode == 8  # csp requested again, and confirmed
     assert demo.node.simulation.drive(2).axis(0).mode == 8
+    # a drive that takes neither the new mode nor the previous one back (it runs pv whatever is
+    # asked): the axis is held (HALT) and its state says why
+    drive_axis = demo.node.simulation.drive(2).axis(0)
+    switch = drive_axis.switch_mode
+    drive_axis.switch_mode = lambda _code: switch(Mode.PROFILE_VELOCITY)
+    failed = demo.call(SetMode, 'set_mode', joints=['base_joint'], mode='csv', timeout=0.3)
+    assert not failed.success, failed.message
+    assert 'the previous mode csp was not confirmed either: axis held (HALT)' in failed.message, failed.message
+    wait_for(lambda: any(a.joint_name == 'base_joint' and a.halted and 'not confirmed' in a.message
+                         for m in demo.axis_states for a in m.axes), 3, 'the held axis and its cause on ~/axis_states')
 
 
 def test_4_no_parameter_value_ends_the_node_and_inf_commands_are_refused(demo: Demo) -> None:
@@ -204,6 +219,43 @@ def test_4_no_parameter_value_ends_the_node_and_inf_commands_are_refused(demo: D
     demo.error('position[0] (base_joint) is inf')
     count = len(demo.states)
     wait_for(lambda: len(demo.states) > count + 20, 3, 'joint states still streaming')
+
+
+def test_4_an_unexpected_error_in_a_callback_is_a_logged_refusal_and_the_node_keeps_running(
+        demo: Demo, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The callback guard: a bug (here an injected RuntimeError) in a service, a subscription, the
+    parameter callback and the action's execute is answered as a refusal naming it; the node
+    spins on, streams, and serves the same callbacks once the bug is gone."""
+    def bug(*_args: Any, **_kwargs: Any) -> Any:
+        raise RuntimeError('injected bug')
+    master = demo.node.master
+    with monkeypatch.context() as patch:
+        patch.setattr(master, 'sdo_read', bug)  # under ~/sdo_read
+        reply = demo.call(SdoRead, 'sdo_read', node_id=2, index=0x6041, subindex=0)
+        assert not reply.success and 'unexpected error' in reply.message and 'injected bug' in reply.message
+        patch.setattr(master.commands, 'submit', bug)  # under ~/commands
+        demo.client.create_publisher(Float64MultiArray, f'{NS}/commands', 10).publish(
+            Float64MultiArray(data=[demo.position(j) for j in master.axes]))
+        demo.error("~/commands: refused: unexpected error RuntimeError('injected bug')")
+        patch.setattr(node_parameters, 'validate', bug)  # under the parameter callback
+        result = ParameterClient(demo.ros, 'drive_bridge').set('publish_rate', 0.0)
+        assert not result.successful and 'publish_rate' in result.reason and 'injected bug' in result.reason
+        patch.setattr(master.executor, 'submit_async', bug)  # under the action's execute
+        action = ActionClient(demo.client, FollowJointTrajectory, f'{NS}/follow_joint_trajectory')
+        assert action.wait_for_server(timeout_sec=5)
+        here = demo.position('base_joint')
+        goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=['base_joint'], points=[
+            JointTrajectoryPoint(positions=[here], time_from_start=Duration(sec=1))]))
+        sent = action.send_goal_async(goal)
+        handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal response')
+        done = handle.get_result_async()
+        answer = wait_for(lambda: done.result() if done.done() else None, 10, 'goal result').result
+        assert answer.error_code != FollowJointTrajectory.Result.SUCCESSFUL and 'injected bug' in answer.error_string
+    assert failures_of(demo.node).count >= 4
+    count = len(demo.states)
+    wait_for(lambda: len(demo.states) > count + 20, 3, 'joint states still streaming')
+    assert demo.call(SdoRead, 'sdo_read', node_id=2, index=0x6041, subindex=0).success  # served again
+    assert ParameterClient(demo.ros, 'drive_bridge').set('publish_rate', 0.0).successful
 
 
 def test_5_safety_objects_are_closed_by_default(demo: Demo) -> None:
@@ -222,6 +274,7 @@ def test_7_a_fault_refusal_names_the_emcy_and_the_way_out(demo: Demo) -> None:
     demo.send([(1.0, demo.position('base_joint') + 0.1, None)])
     text = demo.error('base_joint is in fault')
     assert 'last EMCY 0x2310 continuous over-current at' in text and '~/fault_reset' in text and '~/recover' in text
+    assert '0x603F error code 0x2310' in text
     refused = demo.call(AxisCommand, 'enable', joints=['base_joint'])
     assert not refused.success and '0x2310' in refused.message and '~/recover' in refused.message
     assert demo.call(AxisCommand, 'recover', joints=['base_joint']).success

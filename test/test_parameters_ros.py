@@ -97,3 +97,34 @@ def test_errors_are_named(setup: tuple[RosHarness, BusNode], srv: Any, name: str
     response = call(ros, srv, name, **fields)
     assert not response.success
     assert reason in response.message, response.message
+
+
+def test_safety_parameters_and_objects_are_closed_to_clients_by_default(setup: tuple[RosHarness, BusNode]) -> None:
+    """The AKD's FBUS.PARAM01 (bit rate) and FBUS.PARAM04 (SYNC supervision) decide its link and
+    its reaction to a lost master: refused by access.safety_objects under either name, nothing
+    written (issue 20)."""
+    from drive_bridge_interfaces.msg import SdoValue
+    from drive_bridge_interfaces.srv import SdoWrite
+    ros, bridge = setup
+    drive = bridge.simulation.drive(1)
+    before = drive.value(0x36E5), drive.value(0x36E8)
+    for parameter in ('FBUS.PARAM01', 'fbus.param04'):
+        refused = call(ros, ParamWrite, 'param_write', joint='joint1', parameter=parameter, value='500')
+        assert not refused.success and 'access.safety_objects' in refused.message, refused.message
+        assert parameter.upper() in refused.message
+    refused = call(ros, SdoWrite, 'sdo_write', node_id=1, index=0x36E5, subindex=0,
+                   value=SdoValue(data_type=SdoValue.UNSIGNED32, uint_value=500))
+    assert not refused.success and 'access.safety_objects' in refused.message and 'FBUS.PARAM01' in refused.message
+    assert (drive.value(0x36E5), drive.value(0x36E8)) == before
+
+
+@pytest.mark.parametrize('text', ['nan', 'inf', '-inf', '1e300', '-1e300'])
+def test_a_non_finite_or_huge_number_as_text_is_refused_naming_it(setup: tuple[RosHarness, BusNode],
+                                                                  text: str) -> None:
+    ros, bridge = setup
+    drive = bridge.simulation.drive(1)
+    before = drive.value(0x3501)
+    for parameter in ('DRV.ACC', 'MOTOR.ICONT'):  # an integer and a decimal parameter
+        refused = call(ros, ParamWrite, 'param_write', joint='joint1', parameter=parameter, value=text)
+        assert not refused.success and parameter in refused.message, (parameter, text, refused.message)
+    assert drive.value(0x3501) == before

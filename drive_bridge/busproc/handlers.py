@@ -189,4 +189,6 @@ class Handlers:
             return access.save(body.drive_object)
         if body.op == 'stores':
             return access.stores(body.name)
+        if body.op == 'safety':
+            return access.safety(body.name)
         raise BoundaryError(f'unknown parameter operation {body.op!r}')

@@ -127,7 +127,7 @@ class Nmt:
     node_id: int = 0
 
 
-ParameterOp = Literal['read', 'write', 'save', 'stores']
+ParameterOp = Literal['read', 'write', 'save', 'stores', 'safety']
 
 
 @dataclass(frozen=True)

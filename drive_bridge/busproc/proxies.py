@@ -247,5 +247,11 @@ class ParameterAccessProxy(ParameterAccess):
     def stores(self, name: str) -> bool:
         return bool(self._run(op='stores', name=name))
 
+    def safety(self, name: str) -> str | None:
+        """The family's answer (the access guard refuses such a write unless access.safety_objects
+        names it): without this the base class's None would open every vendor safety parameter."""
+        reason = self._run(op='safety', name=name)
+        return None if reason is None else str(reason)
+
     def for_slot(self, slot: int) -> ParameterAccess:
         return ParameterAccessProxy(self._call, self.node_id, slot, self.timeout)

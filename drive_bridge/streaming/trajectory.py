@@ -65,9 +65,9 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
     """Refuse a trajectory that cannot be executed whole; each reason names the culprit.
     The per-value checks run on arrays (a 5,000-point trajectory in a few milliseconds); the
     motion between the points is checked once splined (``streaming.planning``).
-    ``waypoint_velocities`` False: a waypoint velocity beyond the limit is left to the motion
-    check, which may stretch the trajectory (``trajectory.scale_to_limits``). Returns the
-    trajectory as arrays (None for the empty one), for the planning to reuse."""
+    ``waypoint_velocities`` False: a waypoint velocity or acceleration beyond the limit is left
+    to the motion check, which may stretch the trajectory (``trajectory.scale_to_limits``).
+    Returns the trajectory as arrays (None for the empty one), for the planning to reuse."""
     joints = trajectory.joints
     if not trajectory.points:
         return None  # an empty trajectory is a stop request
@@ -115,14 +115,17 @@ def validate(trajectory: Trajectory, known: Mapping[str, AxisLimits], source: st
                 i, j = _first(bad)
                 raise TrajectoryError(f'{source}: point {i}: position {positions[i, j]:.6g} of {joints[j]} is '
                                       f'{word} its limit {edge[j]:.6g}')
-    velocities = arrays.get('velocity')
-    if velocities is not None and waypoint_velocities:
-        edge = np.array([lim.max_velocity if lim.max_velocity is not None else np.inf for lim in limits])
-        bad = np.abs(velocities) > edge
-        if bad.any():
-            i, j = _first(bad)
-            raise TrajectoryError(f'{source}: point {i}: velocity {velocities[i, j]:.6g} of {joints[j]} exceeds '
-                                  f'its limit {edge[j]:.6g}')
+    if waypoint_velocities:
+        for name, key in (('velocity', 'max_velocity'), ('acceleration', 'max_acceleration')):
+            at_points = arrays.get(name)
+            if at_points is None:
+                continue
+            edge = np.array([getattr(lim, key) if getattr(lim, key) is not None else np.inf for lim in limits])
+            bad = np.abs(at_points) > edge
+            if bad.any():
+                i, j = _first(bad)
+                raise TrajectoryError(f'{source}: point {i}: {name} {at_points[i, j]:.6g} of {joints[j]} exceeds '
+                                      f'its limit {edge[j]:.6g}')
     return data
 
 

@@ -314,9 +314,10 @@ class AkdParameters(ParameterAccess):
             value = None
         if value is None:
             raise self._error(spec.name, f'{text!r} is not a number')
-        if spec.scale <= 0 and value % 1:
+        # to_integral_value, not % 1: a remainder of 1e300 is beyond the decimal context (DivisionImpossible)
+        if spec.scale <= 0 and value != value.to_integral_value():
             raise self._error(spec.name, f'{text} is not an integer')
-        if spec.scale > 0 and (value * 1000) % 1:
+        if spec.scale > 0 and value * 1000 != (value * 1000).to_integral_value():
             raise self._error(spec.name, f'{text} has more than 3 decimals')
         unit = f' {self._unit(spec)}' if self._unit(spec) else ''
         limits = spec.limits
