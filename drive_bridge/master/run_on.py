@@ -2,7 +2,9 @@
 bridge has lost its liveness (heartbeat or guarding) while its frames still arrive: such a drive
 keeps its last references, so the bridge keeps sending its family's stop, by PDO every cycle and
 by SDO every ``SDO_PERIOD``, until the drive reports it is at rest or its frames stop (gone),
-and reports the start, a failing SDO and the end once each.
+and reports the start, a failing SDO and the end once each. Gone is not the end: frames that
+arrive again while its liveness is still lost (a pause of the bus, a busy machine) mean it may
+still be running, and the stop is sent again.
 """
 from __future__ import annotations
 
@@ -29,7 +31,8 @@ class RunOnStop:
     def __init__(self, report: Callable[[NodeRuntime, str, str], None]) -> None:
         self.report = report
         self._stopping: dict[int, _Stopping] = {}
-        self._done: set[int] = set()  # stopped (at rest or gone) in this loss: nothing more sent
+        self._done: set[int] = set()  # at rest in this loss: nothing more sent
+        self._gone: set[int] = set()  # its frames stopped in this loss: the stop resumes if they return
 
     @staticmethod
     def frames_arrive(node: NodeRuntime, now: float) -> bool:
@@ -41,23 +44,30 @@ class RunOnStop:
         if not node.family.runs_on_without_master or node.boot_state is not BootState.LOST:
             self._finish(node, '')
             self._done.discard(node.node_id)
+            self._gone.discard(node.node_id)
             return False
         if node.node_id in self._done:
             return False
         now = time.time()
-        stopping = self._stopping.get(node.node_id)
         if not self.frames_arrive(node, now):
-            self._finish(node, 'its frames stopped (gone): stop no longer sent')
+            if self._finish(node, 'its frames stopped (gone): stop no longer sent, sent again if they return'):
+                self._gone.add(node.node_id)
             return False
-        if stopping is None:
+        if node.node_id not in self._stopping:
             self._stopping[node.node_id] = _Stopping(now)
-            self.report(node, 'error', f'node {node.node_id} ({node.name}): liveness lost while its frames still '
-                                       'arrive; this drive keeps its last references without a master: sending its '
-                                       'stop by PDO and SDO until it is at rest or gone')
+            if node.node_id in self._gone:
+                self._gone.discard(node.node_id)
+                self.report(node, 'error', f'node {node.node_id} ({node.name}): its frames arrive again while its '
+                                           'liveness is still lost: sending its stop again')
+            else:
+                self.report(node, 'error', f'node {node.node_id} ({node.name}): liveness lost while its frames still '
+                                           'arrive; this drive keeps its last references without a master: sending '
+                                           'its stop by PDO and SDO until it is at rest or gone')
         return True
 
     def at_rest(self, node: NodeRuntime) -> None:
-        self._finish(node, 'at rest: stop no longer sent')
+        if self._finish(node, 'at rest: stop no longer sent'):
+            self._done.add(node.node_id)
 
     def sdo_due(self, node: NodeRuntime) -> bool:
         """The SDO stop is due (supervisor thread): only while the node is still lost (once it is
@@ -78,9 +88,10 @@ class RunOnStop:
             self.report(node, 'warn', f'node {node.node_id} ({node.name}): the stop by SDO failed ({exc}); '
                                       'still sent by PDO every cycle, and by SDO again')
 
-    def _finish(self, node: NodeRuntime, why: str) -> None:
+    def _finish(self, node: NodeRuntime, why: str) -> bool:
+        """End the node's stop (reporting ``why`` if given); whether it was being sent."""
         stopping = self._stopping.pop(node.node_id, None)
         if stopping is not None and why:
-            self._done.add(node.node_id)
             self.report(node, 'warn', f'node {node.node_id} ({node.name}): {why} '
                                       f'(after {time.time() - stopping.since:.2f} s)')
+        return stopping is not None
