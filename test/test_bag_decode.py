@@ -107,7 +107,7 @@ def test_decoded_joint_states_match_the_live_ones_per_stamp(recorded, decoded) -
     first, last = stamps[0], stamps[-1]
     in_range = [m for m in live if first <= ns(m.header.stamp) <= last]
     assert len(in_range) > 200, 'the run published too few joint states to compare'
-    matched = mismatched = 0
+    matched = mismatched = names_differ = 0
     moved = 0.0
     for msg in in_range:
         stamp = ns(msg.header.stamp)
@@ -116,12 +116,19 @@ def test_decoded_joint_states_match_the_live_ones_per_stamp(recorded, decoded) -
             continue  # the live cycle read while a cycle's TPDOs were still arriving
         matched += 1
         other = offline[i]
-        assert list(other.name) == list(msg.name)
+        if list(other.name) != list(msg.name):
+            # lift_joint is left out while its heartbeat is lost: the live supervision and the
+            # offline decode (from the frames' stamps) may decide that a cycle or two apart
+            assert set(other.name) ^ set(msg.name) == {'lift_joint'}, (list(other.name), list(msg.name))
+            names_differ += 1
+            continue
         same = all(abs(a - b) <= POSITION_TOLERANCE for a, b in zip(other.position, msg.position)) and \
             all(abs(a - b) <= POSITION_TOLERANCE for a, b in zip(other.velocity, msg.velocity))
         mismatched += not same
         moved = max(moved, abs(msg.velocity[0]))
-    print(f'joint states: {matched} of {len(in_range)} live stamps decoded, {mismatched} differ')
+    print(f'joint states: {matched} of {len(in_range)} live stamps decoded, {mismatched} differ, '
+          f'{names_differ} with lift_joint in one and not the other')
+    assert names_differ <= 0.05 * matched, f'{names_differ} of {matched} stamps differ in their joints'
     assert moved > 0.1, 'the trajectory did not move base_joint'
     # a live cycle may read a joint's position while its next TPDO is being stored; and the drives,
     # simulated in this test's own busy process on the local bus, answer some SYNCs late: the
