@@ -145,6 +145,10 @@ class TappedBus(can.BusABC):
 
     # -- frames -----------------------------------------------------------------------------
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        # stamped when handed to the interface, not when its send returns: a send may wait for the
+        # bus (or, on the local transport, for a slow receiver) while the frame's answer is already
+        # received and stamped; a recording must keep a request before its answer
+        handed = time.time()
         try:
             self._inner.send(msg, timeout)
         except BUS_ERRORS as exc:
@@ -153,7 +157,7 @@ class TappedBus(can.BusABC):
             raise
         self._ok()
         sent = can.Message(
-            timestamp=time.time(), arbitration_id=msg.arbitration_id,
+            timestamp=handed, arbitration_id=msg.arbitration_id,
             is_extended_id=msg.is_extended_id, is_remote_frame=msg.is_remote_frame,
             is_error_frame=msg.is_error_frame, dlc=msg.dlc, data=bytes(msg.data),
             is_rx=False, channel=msg.channel,
