@@ -77,6 +77,9 @@ class Sniffer:
 def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subprocess.Popen[str], Any, Sniffer]]:
     """The node process (with its bus process) on a local bus, the simulated drives here."""
     data = local_data(data)
+    # the drives run in this test's process, beside its ROS harness: on a busy 2-core machine a
+    # stall of it over 300 ms lost heartbeats both ways (EMCY 0x8130, the trajectory refused)
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
     sim = simulated(data)
     sniffer = Sniffer(data['bus']['channel'])
     bridge_data = {**data, 'simulation': {'enabled': False}}
