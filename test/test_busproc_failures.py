@@ -45,6 +45,7 @@ RPDO1 = {2: 0x202, 3: 0x203, 4: 0x204}  # controlword of axis 0 (node 3's second
 RPDO3_ARM = 0x403
 QUICK_STOP_MASK, QUICK_STOP = 0x0087, 0x0002  # controlword "quick stop": bit 1 set, bits 0, 2, 7 clear
 ENABLE_MASK, ENABLE_OPERATION = 0x008F, 0x000F
+BRAKE_DELAY = 0.3  # s: base_joint's on_node_loss brake delay
 
 
 class Sniffer:
@@ -76,6 +77,9 @@ class Sniffer:
 def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subprocess.Popen[str], Any, Sniffer]]:
     """The node process (with its bus process) on a local bus, the simulated drives here."""
     data = local_data(data)
+    # the drives run in this test's process, beside its ROS harness: on a busy 2-core machine a
+    # stall of it over 300 ms lost heartbeats both ways (EMCY 0x8130, the trajectory refused)
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
     sim = simulated(data)
     sniffer = Sniffer(data['bus']['channel'])
     bridge_data = {**data, 'simulation': {'enabled': False}}
@@ -141,7 +145,7 @@ def test_the_node_killed_its_bus_process_quick_stops_every_axis_then_disables_or
     lift['sdo'] = [{'index': 0x605A, 'sub_index': 0, 'value': 6}]
     # base: disabled after the brake delay, from quick stop active (the drive stays there too)
     base = data['nodes']['base_drive']
-    base['axes'][0]['on_node_loss'] = {'action': 'disable', 'brake_delay': 0.1}
+    base['axes'][0]['on_node_loss'] = {'action': 'disable', 'brake_delay': BRAKE_DELAY}
     base['sdo'] = [{'index': 0x605A, 'sub_index': 0, 'value': 6}]
     with bridge_process(tmp_path, data) as (bridge, sim, sniffer):
         enabled_and_moving(ros, sim)
@@ -160,11 +164,17 @@ def test_the_node_killed_its_bus_process_quick_stops_every_axis_then_disables_or
         wait_for(lambda: sim.drive(2).axis(0).state is State.SWITCHED_ON, 5, 'base_joint disabled')
         base_words = sniffer.controlwords(RPDO1[2], stopped(RPDO1[2]) or killed)
         assert not [cw for _, cw in base_words if cw & ENABLE_MASK == ENABLE_OPERATION]
+        # in that order on the bus: quick stop, kept until at rest and the brake delay has passed,
+        # then the words that disable it (a stall of this test's sniffer may shorten the gap it sees)
+        leaving = next(t for t, cw in base_words if cw & QUICK_STOP_MASK != QUICK_STOP)
+        assert leaving - base_words[0][0] >= BRAKE_DELAY / 2, f'disabled {leaving - base_words[0][0]:.3f} s after'
         # lift: held in quick stop active, at rest, with the bus alive (its heartbeat consumer content)
         assert sim.drive(4).axis(0).state is State.QUICK_STOP_ACTIVE
         held = sim.drive(4).axis(0).position
         time.sleep(0.5)
         assert sim.drive(4).axis(0).state is State.QUICK_STOP_ACTIVE and sim.drive(4).axis(0).position == held
+        lift_words = sniffer.controlwords(RPDO1[4], stopped(RPDO1[4]) or killed)  # quick stop, and only that
+        assert len(lift_words) > 10 and all(cw & QUICK_STOP_MASK == QUICK_STOP for _, cw in lift_words)
         assert bus.is_running()
         # the others (option code 2): disabled, by the drive itself at the end of its quick stop or
         # by the bridge once at rest; never enabled again

@@ -37,6 +37,8 @@ def test_lifecycle_transitions_boot_start_halt_and_release(ros: RosHarness) -> N
         assert transition(ros, change, Transition.TRANSITION_CONFIGURE)
         assert ros.call(get, GetState.Request()).current_state.label == 'inactive'
         node.bridge.master.wait_until_operational(10)
+        bus_process = node.bridge.master.process  # configure started the bus process, the node's child
+        assert bus_process is not None and bus_process.poll() is None
         axes = node.bridge.master.axes
         assert all(a.state is State.SWITCH_ON_DISABLED for a in axes.values())  # booted, not enabled
         time.sleep(0.3)
@@ -64,9 +66,11 @@ def test_lifecycle_transitions_boot_start_halt_and_release(ros: RosHarness) -> N
         assert transition(ros, change, Transition.TRANSITION_DEACTIVATE)
         assert transition(ros, change, Transition.TRANSITION_CLEANUP)
         assert node.bridge is None
+        assert bus_process.poll() == 0  # cleanup ended the bus process (it released the bus)
         assert ros.call(get, GetState.Request()).current_state.label == 'unconfigured'
         assert transition(ros, change, Transition.TRANSITION_CONFIGURE)  # again, on a fresh bus
         node.bridge.master.wait_until_operational(10)
+        assert node.bridge.master.pid != bus_process.pid  # in a bus process of its own
 
 
 def test_configure_fails_cleanly_on_a_bad_configuration(ros: RosHarness) -> None:

@@ -1,9 +1,10 @@
 """The trajectory executor of the bus process, as the node process sees it (the
 ``TrajectoryExecutor`` API the ROS layer used): submit, stop, the stream clock, desired states.
 
-A trajectory crosses in chunks of ``intents.CHUNK_POINTS`` points, each sent once the one
-before it is acknowledged; the answer to the last is the handle, kept up to date by the bus
-process's HandleState reports. Stops go on the stop lane.
+A trajectory crosses in chunks of ``intents.chunk_points`` points (at most
+``intents.CHUNK_POINTS``), each sent once the one before it is acknowledged; the answer to the
+last is the handle, kept up to date by the bus process's HandleState reports. Stops go on the
+stop lane.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import time
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
-from drive_bridge.busproc.intents import CHUNK_POINTS, Query, Stop, TrajectoryChunk
+from drive_bridge.busproc.intents import Query, Stop, TrajectoryChunk, chunk_points
 from drive_bridge.busproc.proxies import HandleProxy
 from drive_bridge.busproc.reports import FeederState, HandleState
 from drive_bridge.joint.strategy import NOT_STREAMED
@@ -94,7 +95,8 @@ class ExecutorProxy:
         trajectory, which stops its joints) or the refusal."""
         result: concurrent.futures.Future[HandleProxy | None] = concurrent.futures.Future()
         points = trajectory.points
-        parts = [points[i:i + CHUNK_POINTS] for i in range(0, len(points), CHUNK_POINTS)] or [()]
+        size = chunk_points(len(trajectory.joints))
+        parts = [points[i:i + size] for i in range(0, len(points), size)] or [()]
         submission = next(self._submissions)
 
         def send(index: int) -> None:

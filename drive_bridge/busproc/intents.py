@@ -11,7 +11,8 @@ Every record travels inside a :class:`Request` with an id that its answer (a
   (``busy``) at once.
 
 Bounds: a message is at most ``wire.MAX_MESSAGE`` bytes; a trajectory crosses in chunks of at
-most :data:`CHUNK_POINTS` points (:class:`TrajectoryChunk`), at most
+most :data:`CHUNK_POINTS` points (:class:`TrajectoryChunk`), fewer for a trajectory of many
+joints (:func:`chunk_points`: a chunk's points stay under :data:`CHUNK_BYTES`), at most
 ``streaming.trajectory.MAX_TRAJECTORY_POINTS`` in all.
 """
 from __future__ import annotations
@@ -23,6 +24,18 @@ from drive_bridge.config.source import ConfigSource
 from drive_bridge.streaming.trajectory import TrajectoryPoint
 
 CHUNK_POINTS = 500  # points per trajectory chunk: ~60 kB pickled at 4 joints with p, v, a
+CHUNK_BYTES = 128 * 1024  # a chunk's points pickled, at most: half of wire.MAX_MESSAGE (names besides)
+_POINT_BYTES = 64  # one TrajectoryPoint pickled, without its values, at most
+_VALUE_BYTES = 3 * 9  # per joint and point: position, velocity, acceleration, 9 bytes each pickled
+
+
+def chunk_points(joints: int) -> int:
+    """Points per chunk of a trajectory of ``joints`` joints: :data:`CHUNK_POINTS`, fewer when
+    that many points could pickle to more than :data:`CHUNK_BYTES` (468 at 8 joints, 73 at 64,
+    the most a trajectory message may name), so a valid trajectory's chunk never goes over the
+    boundary's byte limit (500 points at 20 joints did: ~290 kB)."""
+    return max(1, min(CHUNK_POINTS, CHUNK_BYTES // (_POINT_BYTES + _VALUE_BYTES * max(joints, 1))))
+
 
 AxisIntentName = Literal['enable', 'disable', 'quick_stop', 'halt', 'resume', 'fault_reset', 'set_mode',
                          'home', 'wait_target_reached']

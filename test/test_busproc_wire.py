@@ -1,0 +1,117 @@
+"""The boundary between the node process and its bus process, without either process: what a
+lane carries (typed records only), its bounds (bytes per message, points per trajectory chunk,
+frames per batch, the frame queue) and the cyclic state's layout."""
+from __future__ import annotations
+
+import concurrent.futures
+import datetime
+import pickle
+
+import can
+import pytest
+
+from drive_bridge.busproc import cyclic, outbox, wire
+from drive_bridge.busproc.errors import BoundaryError
+from drive_bridge.busproc.executor import ExecutorProxy
+from drive_bridge.busproc.intents import CHUNK_BYTES, CHUNK_POINTS, Request, Stop, TrajectoryChunk, chunk_points
+from drive_bridge.busproc.reports import FRAMES_PER_BATCH, Frames, unpack_frames
+from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS, Trajectory, TrajectoryPoint
+
+MAX_JOINT_NAMES = 64  # ros.message_limits: the most joints a trajectory message may name (not imported: no ROS here)
+
+
+def test_a_record_crosses_whole_and_typed() -> None:
+    record = Request(7, Stop(('base_joint', 'lift_joint'), 'quick_stop', 'test'))
+    assert wire.decode(wire.encode(record)) == record
+
+
+@pytest.mark.parametrize('foreign', [datetime.date(2026, 1, 1), wire.encode, pickle.loads])
+def test_a_message_naming_anything_but_a_record_is_refused(foreign: object) -> None:
+    with pytest.raises(BoundaryError, match='which the boundary does not carry'):
+        wire.decode(pickle.dumps(foreign))
+
+
+def test_garbage_is_a_boundary_error() -> None:
+    with pytest.raises(BoundaryError, match='malformed message'):
+        wire.decode(b'\x80\x05not a pickle')
+
+
+def test_a_record_over_the_byte_limit_is_refused_before_it_is_sent() -> None:
+    with pytest.raises(BoundaryError, match=f'TrajectoryChunk of [0-9]+ bytes is over .* {wire.MAX_MESSAGE} bytes'):
+        wire.encode(chunk(20, CHUNK_POINTS))  # 500 points at 20 joints: ~290 kB
+
+
+@pytest.mark.parametrize('joints', [1, 4, 8, 12, 16, 20, 32, MAX_JOINT_NAMES])
+def test_a_full_trajectory_chunk_fits_one_message_at_any_joint_count(joints: int) -> None:
+    points = chunk_points(joints)
+    assert 1 <= points <= CHUNK_POINTS
+    size = len(wire.encode(chunk(joints, points)))
+    assert size <= wire.MAX_MESSAGE
+    assert size - len(wire.encode(chunk(joints, 0))) <= CHUNK_BYTES
+
+
+def test_the_longest_trajectory_on_a_wide_bus_crosses_in_chunks_within_the_limit() -> None:
+    sent: list[TrajectoryChunk] = []
+
+    class Lane:  # the client's request lane as far as submitting goes: each chunk encoded, answered
+        def call_async(self, body: TrajectoryChunk) -> concurrent.futures.Future[object]:
+            assert isinstance(wire.decode(wire.encode(body)), TrajectoryChunk)  # BoundaryError over the limit
+            sent.append(body)
+            answer: concurrent.futures.Future[object] = concurrent.futures.Future()
+            answer.set_result(None)
+            return answer
+    whole = chunk(20, MAX_TRAJECTORY_POINTS)
+    executor = ExecutorProxy(Lane(), 0.1, 0.5)  # type: ignore[arg-type]
+    assert executor.submit(Trajectory(whole.joints, whole.points)) is None
+    assert [c.chunk for c in sent] == list(range(len(sent))) and {c.chunks for c in sent} == {len(sent)}
+    assert tuple(p for c in sent for p in c.points) == whole.points
+    assert max(len(c.points) for c in sent) == chunk_points(20) < CHUNK_POINTS
+
+
+def test_the_cyclic_state_round_trips_and_a_wrong_size_is_refused() -> None:
+    joints = [(True, 0.5, -1.25, 0.01, 1.7e9), (False, 0.0, 0.0, 0.0, 0.0)]
+    data = cyclic.pack(2**32 + 5, 0.002, 3, 1, joints)
+    assert len(data) == cyclic.size(2)
+    state = cyclic.unpack(data, 2)
+    assert (state.sequence, state.lag, state.stalls, state.dropped, state.joints) == (5, 0.002, 3, 1, tuple(joints))
+    with pytest.raises(ValueError, match='expected'):
+        cyclic.unpack(data, 3)
+
+
+def test_frames_cross_in_bounded_batches_and_a_full_queue_counts_its_drops(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(outbox, 'MAX_FRAMES', FRAMES_PER_BATCH + 10)
+    node_end, bus_end = wire.lane_pair()
+    box = outbox.Outbox(wire.Lane(bus_end), lambda reason: None)
+    reader = wire.Lane(node_end)
+    try:
+        box.on_frame(can.Message(arbitration_id=0x80))  # not forwarded: nobody records
+        assert not box.frames
+        box.forward_frames = True
+        for k in range(FRAMES_PER_BATCH + 15):  # the sender not started: the queue fills
+            box.on_frame(can.Message(timestamp=k, arbitration_id=0x180 + k % 4, data=k.to_bytes(4, 'little')))
+        assert len(box.frames) == FRAMES_PER_BATCH + 10 and box.dropped_frames == 5
+        box.start()
+        batches = []
+        while sum(b.count for b in batches) < FRAMES_PER_BATCH + 10:
+            record = reader.recv()
+            if isinstance(record, Frames):
+                batches.append(record)
+        assert [b.count for b in batches] == [FRAMES_PER_BATCH, 10]
+        assert all(b.dropped == 5 for b in batches)  # the count travels with every batch
+        first = unpack_frames(batches[0].data)[0]
+        assert (first[1], first[6]) == (0x180, (0).to_bytes(4, 'little'))
+    finally:
+        box.stop()
+        reader.close()
+        bus_end.close()
+
+
+def chunk(joints: int, points: int) -> TrajectoryChunk:
+    """A chunk of ``points`` points of positions, velocities and accelerations on ``joints``
+    joints with long names, values that pickle at full size."""
+    names = tuple(f'a_rather_long_joint_name_of_a_wide_bus_{j:03d}' for j in range(joints))
+    return TrajectoryChunk(1, 0, 1, names, tuple(
+        TrajectoryPoint(0.123456789 * (i + 1), tuple(0.1234567 * j + i for j in range(joints)),
+                        tuple(0.3456789 * j + i for j in range(joints)),
+                        tuple(-0.7654321 * j - i for j in range(joints)))
+        for i in range(points)), 1.7e9, 'joint_trajectory')
