@@ -7,6 +7,7 @@ import subprocess
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -72,13 +73,29 @@ def ros_harness() -> Iterator[RosHarness]:
         harness.shutdown()
 
 
+def spawn(args: list[str], log: Path, **kwargs: Any) -> subprocess.Popen:
+    """Start a child whose output (stdout and stderr) goes to the file ``log``, not to a pipe: a
+    pipe that nobody reads while the test runs fills at 64 KiB, and the child then blocks at its
+    next log line (its executor stops answering; a busy machine logs more)."""
+    with open(log, 'w') as out:
+        proc = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT, text=True, **kwargs)
+    proc.log_path = log  # type: ignore[attr-defined]
+    return proc
+
+
+def output(proc: subprocess.Popen) -> str:
+    """What a child started by ``spawn`` has printed so far."""
+    log = getattr(proc, 'log_path', None)
+    return log.read_text(errors='replace') if log is not None else ''
+
+
 def interrupt(proc: subprocess.Popen, timeout: float = 20.0) -> str:
     """Ctrl-C to a process started with ``start_new_session`` (its whole group), SIGKILL if it
     has not ended within ``timeout``; returns what it printed."""
     if proc.poll() is None:
         os.killpg(proc.pid, signal.SIGINT)
     try:
-        return proc.communicate(timeout=timeout)[0] or ''
+        return proc.communicate(timeout=timeout)[0] or output(proc)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
-        return proc.communicate()[0] or ''
+        return proc.communicate()[0] or output(proc)

@@ -37,7 +37,7 @@ from bridgetools import local_data, simulated
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.master.bus import open_bus
-from rostools import RosHarness, wait_for
+from rostools import RosHarness, output, spawn, wait_for
 
 REPO = Path(__file__).resolve().parent.parent
 NS = '/drive_bridge'
@@ -86,9 +86,8 @@ def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subpr
     config = tmp_path / 'bus.yaml'
     config.write_text(yaml.safe_dump(bridge_data, sort_keys=False))
     env = {**os.environ, 'PYTHONPATH': str(REPO)}
-    bridge = subprocess.Popen([sys.executable, '-c', 'from drive_bridge.cli.bridge import bridge_main; bridge_main()',
-                               str(config), '--ros-args', '-p', 'auto_enable:=true'],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    bridge = spawn([sys.executable, '-c', 'from drive_bridge.cli.bridge import bridge_main; bridge_main()',
+                    str(config), '--ros-args', '-p', 'auto_enable:=true'], tmp_path / 'bridge.log', env=env)
     try:
         yield bridge, sim, sniffer
     finally:
@@ -218,7 +217,7 @@ def test_the_bus_process_killed_the_node_reports_every_joint_unavailable_and_exi
                            'the command refused with the reason')
         assert refusal.data.startswith('~/commands: refused: bus process lost')
         assert bridge.wait(10) == 3
-        assert not bridge.stderr or 'bus process lost' in bridge.stderr.read()
+        assert 'bus process lost' in output(bridge)
 
 
 @pytest.fixture(autouse=True)

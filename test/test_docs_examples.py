@@ -20,7 +20,7 @@ import pytest
 import yaml
 
 import ros2cli
-from rostools import interrupt
+from rostools import interrupt, output, spawn
 
 REPO = Path(__file__).resolve().parent.parent
 DOCS = REPO / 'docs'
@@ -80,8 +80,8 @@ def bridge(tmp_path: Path) -> Iterator[callable]:
         args = [str(Path(sys.prefix) / 'bin' / executable), str(local)]
         if ros_args:
             args += ['--ros-args', *ros_args]
-        proc = subprocess.Popen(args, env=dict(os.environ), cwd=tmp_path, stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        proc = spawn(args, tmp_path / f'{executable}-{len(procs)}.log', env=dict(os.environ), cwd=tmp_path,
+                     start_new_session=True)
         procs.append(proc)
         return proc
 
@@ -96,7 +96,7 @@ def run_lines(lines: list[str], proc: subprocess.Popen) -> None:
     try:
         session.echo('/drive_bridge/axis_states', 1)  # the bridge is up
         for line in lines:
-            assert proc.poll() is None, f'the bridge ended before {line}: {proc.stdout.read()[-2000:]}'
+            assert proc.poll() is None, f'the bridge ended before {line}: {output(proc)[-2000:]}'
             try:
                 answer = ros2cli.run(ros2cli.split_command(line), session)
             except ros2cli.CliError as exc:

@@ -62,7 +62,7 @@ def test_a_killed_bridge_leaves_no_drive_moving(ros: RosHarness, tmp_path: Path)
     bridge_log = (tmp_path / 'bridge.log').open('w')  # the bus process inherits it: never a full pipe
     sim = subprocess.Popen(python('import sys; from drive_bridge.cli.main import main; sys.exit(main(sys.argv[1:]))',
                                   'sim', str(DEMO), '--interface', 'local', '--channel', channel),
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                           stdout=subprocess.PIPE, stderr=(tmp_path / 'sim.log').open('w'), text=True, env=env)
     bridge = bus_process = None
     observer = canopen.Network(open_bus('local', channel))
     try:

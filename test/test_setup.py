@@ -14,7 +14,7 @@ import yaml
 from drive_bridge_interfaces.msg import CanFrame
 
 import ros2cli
-from rostools import RosHarness, interrupt, wait_for
+from rostools import RosHarness, interrupt, output, spawn, wait_for
 from shelltools import from_background_shell
 
 REPO = Path(__file__).resolve().parent.parent
@@ -36,12 +36,11 @@ def test_second_bootstrap_is_a_fast_no_op() -> None:
                                              (signal.SIGINT, 'by a background shell'),
                                              (signal.SIGTERM, 'by a background shell')],
                          ids=['SIGINT', 'SIGINT, inherited ignored', 'SIGTERM, SIGINT inherited ignored'])
-def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, signum: int, started: str) -> None:
+def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, tmp_path: Path, signum: int, started: str) -> None:
     """Stopped by the signal whatever it inherited: a background shell starts it with SIGINT ignored."""
     exe = [str(Path(sys.prefix) / 'bin' / 'bridge')]
-    proc = subprocess.Popen(from_background_shell(exe) if started == 'by a background shell' else exe,
-                            env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    proc = spawn(from_background_shell(exe) if started == 'by a background shell' else exe, tmp_path / 'bridge.log',
+                 env=dict(os.environ), stdin=subprocess.DEVNULL, start_new_session=True)
     try:
         frames: list[CanFrame] = []
         ros.node('watcher').create_subscription(CanFrame, '/drive_bridge/can_frames', frames.append, 100)
@@ -49,7 +48,8 @@ def test_demo_bridge_publishes_until_the_signal(ros: RosHarness, signum: int, st
         assert all(f.header.frame_id == 'drive_bridge_demo' for f in frames)
         assert proc.poll() is None
         os.killpg(proc.pid, signum)
-        out, _ = proc.communicate(timeout=30)
+        proc.wait(timeout=30)
+        out = output(proc)
         assert proc.returncode == 0, out  # a clean stop: motion stopped, the bus released
         assert 'Traceback' not in out, out
     finally:
@@ -75,9 +75,8 @@ def _run_readme_example(ros: RosHarness, attempt: int, config: Path) -> tuple[bo
     from drive_bridge_interfaces.msg import AxisState, AxisStates
     from sensor_msgs.msg import JointState
     exe = Path(sys.prefix) / 'bin' / 'bridge'
-    proc = subprocess.Popen([str(exe), str(config), '--ros-args', '-p', 'auto_enable:=true'],
-                            env=dict(os.environ), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    proc = spawn([str(exe), str(config), '--ros-args', '-p', 'auto_enable:=true'],
+                 config.parent / f'bridge-{attempt}.log', env=dict(os.environ), start_new_session=True)
     arrived_at_goal = False
     try:
         states: list[JointState] = []
@@ -100,12 +99,7 @@ def _run_readme_example(ros: RosHarness, attempt: int, config: Path) -> tuple[bo
         except AssertionError:
             pass
     finally:
-        os.killpg(proc.pid, signal.SIGINT)
-        try:
-            out = proc.communicate(timeout=20)[0]
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            out = proc.communicate()[0]
+        out = interrupt(proc)
     return arrived_at_goal, out
 
 
@@ -148,8 +142,8 @@ def test_readme_your_drive_in_ten_lines(tmp_path: Path) -> None:
         for command in commands:
             words = command.split()
             words[0] = str(Path(sys.prefix) / 'bin' / Path(words[0]).name)
-            procs.append(subprocess.Popen(words, cwd=tmp_path, env=env, stdout=subprocess.PIPE,
-                                          stderr=subprocess.STDOUT, text=True, start_new_session=True))
+            procs.append(spawn(words, tmp_path / f'{Path(words[0]).name}.log', cwd=tmp_path, env=env,
+                               start_new_session=True))
         session = ros2cli.Session()
         try:
             # the user starts the client once the bridge said "node 2 (my_drive) booted and operational"
