@@ -422,7 +422,7 @@ def test_a_quintic_trajectory_on_a_pv_joint_through_the_bridges_loop() -> None:
         drive = sim.drive(WRIST)
         axis = enabled(master, 'wrist_joint')
         assert axis.stream_strategy() == 'position-loop'
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         errors: list[float] = []
 
         def watch(_cycle: int) -> None:

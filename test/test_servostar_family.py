@@ -410,7 +410,7 @@ def test_max_velocity_above_vlim_is_refused_naming_vlim() -> None:
 
 def _stream(master: Master, joint: str, points: list[TrajectoryPoint],
             watch: Any = None) -> tuple[TrajectoryExecutor, Any]:
-    executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+    executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
 
     def cycle(_cycle: int) -> None:
         executor.check()
