@@ -30,6 +30,7 @@ from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
@@ -76,7 +77,7 @@ class ModeControl(SetpointChecks):
     _stale: bool
     _written: dict[tuple[int, int], int | float]
     _message: str
-    _loop: PositionLoop | None  # the bridge's position loop (velocity modes, 'position-loop' strategy)
+    _loop: PositionLoop | None  # the bridge's position loop (velocity modes, StreamStrategy.POSITION_LOOP)
     _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
     _mode_problem: str  # why the axis has no usable mode ('' when it has one)
 
@@ -131,7 +132,7 @@ class ModeControl(SetpointChecks):
         return 0
 
     def _looped(self) -> bool:
-        return self.stream_strategy() == 'position-loop'
+        return self.stream_strategy() == StreamStrategy.POSITION_LOOP
 
     def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
         mode = self._mode
@@ -396,7 +397,7 @@ class ModeControl(SetpointChecks):
         """A CiA 402 axis follows any trajectory its streaming mode takes; a velocity-only
         one only in a velocity mode (its positions are integrated, not measured)."""
         self._require_mode()
-        if not has_positions and self.stream_strategy() != 'cyclic-velocity':
+        if not has_positions and self.stream_strategy() != StreamStrategy.CYCLIC_VELOCITY:
             raise AxisError(f'{self._where()}: a trajectory without positions needs a velocity streaming '
                             f'mode (csv); mode is {mode_name(self._mode)}')
 
@@ -406,11 +407,11 @@ class ModeControl(SetpointChecks):
         return ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
                 else 'effort' if mode in TORQUE_MODES else None)
 
-    def stream_strategy(self) -> str | None:
+    def stream_strategy(self) -> StreamStrategy | None:
         """How trajectories are streamed in the requested mode (the family decides); a
         velocity mode with the axis' ``position_loop`` set streams through the bridge's loop."""
         if self.config.position_loop.enabled and self._mode in VELOCITY_MODES:
-            return 'position-loop'
+            return StreamStrategy.POSITION_LOOP
         if self.profile is not None:
             return self.profile.streaming_strategy(self._mode, self.config.ip_submode)
         return standard_strategy(self._mode, self.config.ip_submode, None)

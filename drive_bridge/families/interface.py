@@ -43,6 +43,7 @@ from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
 
 if TYPE_CHECKING:
@@ -297,8 +298,8 @@ class DriveFamily:
         """Objects carrying an axis' actual and target values."""
         return AxisObjects.cia402(slot)
 
-    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None:
-        """How trajectories are streamed in ``mode``: 'cyclic', 'ip-linear', 'pvt' (None: not)."""
+    def streaming_strategy(self, mode: int, ip_submode: int) -> StreamStrategy | None:
+        """How trajectories are streamed in ``mode`` (None: the mode takes no trajectory)."""
         return standard_strategy(mode, ip_submode, self.pvt_submode)
 
     def pvt_record(self, slot: int) -> PvtRecord | None:

@@ -33,7 +33,7 @@ references go to 0 and the snapshot says the command is stale.
 
 Position: the drive has no position reference, so position commands are refused, unless the
 axis sets ``position_loop`` (gain, following error): then pv streams trajectories through the
-bridge's own loop ('position-loop': velocity = feed-forward + gain x error, on the measured or
+bridge's own loop (StreamStrategy.POSITION_LOOP: velocity = feed-forward + gain x error, on the measured or
 integrated position) and takes position commands; a following error beyond the limit stops
 the stream and halts the axis (references 0, RUN kept).
 """
@@ -56,6 +56,7 @@ from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, Timeouts
 
 PV = int(Mode.PROFILE_VELOCITY)
@@ -562,12 +563,12 @@ class RunLogicDriver:
         return 'velocity' if self._mode == PV else 'effort'
 
     # -- streaming ----------------------------------------------------------------------------------
-    def stream_strategy(self) -> str | None:
+    def stream_strategy(self) -> StreamStrategy | None:
         """Velocity set-points every cycle in pv (through the bridge's position loop when the axis
         sets one); no trajectory in pt."""
         if self._mode != PV:
             return None
-        return 'position-loop' if self._looped() else 'cyclic-velocity'
+        return StreamStrategy.POSITION_LOOP if self._looped() else StreamStrategy.CYCLIC_VELOCITY
 
     def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
         """In pv a trajectory is followed through its velocities (open loop: the drive has no

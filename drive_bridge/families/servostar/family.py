@@ -50,6 +50,7 @@ from drive_bridge.families.servostar.options import parse_options
 from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE, ServostarParameters
 from drive_bridge.families.servostar.units import DriveUnits
 from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
 from drive_bridge.resources import family_data
 
@@ -168,10 +169,10 @@ class Servostar(DriveFamily):
                            effort_actual=o.TORQUE_ACTUAL, target_position=o.TRAJECTORY_SETPOINT,
                            target_velocity=o.TARGET_VELOCITY, target_effort=(0x2060, 0))
 
-    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None:
-        """Mode 0xFA: one absolute position setpoint per SYNC ('cyclic')."""
+    def streaming_strategy(self, mode: int, ip_submode: int) -> StreamStrategy | None:
+        """Mode 0xFA: one absolute position setpoint per SYNC (cyclic, as CSP)."""
         if mode == o.MODE_TRAJECTORY:
-            return 'cyclic'
+            return StreamStrategy.CYCLIC
         return standard_strategy(mode, ip_submode, None)
 
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
