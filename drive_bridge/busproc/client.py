@@ -40,7 +40,8 @@ from drive_bridge.busproc.reports import Ready
 from drive_bridge.busproc.snapshots import SnapshotCache
 from drive_bridge.config.source import ConfigSource
 from drive_bridge.families import get_family
-from drive_bridge.families.parameters import ParameterAccess, ParameterError
+from drive_bridge.families.errors import ParameterError
+from drive_bridge.families.parameters import ParameterAccess
 from drive_bridge.joint import Setpoint
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.sdo import SdoPlain

@@ -13,6 +13,7 @@ from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import bootmodes, objects as obj, statemachine as sm
+from drive_bridge.cia402.errors import AxisError, SetpointRefused
 from drive_bridge.cia402.modes import (
     CYCLIC_MODES,
     POSITION_MODES,
@@ -24,10 +25,10 @@ from drive_bridge.cia402.modes import (
     parse_mode,
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
-from drive_bridge.cia402.setpoint_check import SetpointChecks, SetpointRefused, check_targets, seed_hold
+from drive_bridge.cia402.setpoint_check import SetpointChecks, check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint import BufferFeeder, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.strategy import StreamStrategy
@@ -42,10 +43,6 @@ def _number(value: int | float | str | bytes) -> int:
     if isinstance(value, (str, bytes)):
         raise AxisError(f'expected a number, the drive sent {value!r}')
     return int(value)
-
-
-class AxisError(JointError):
-    """An intent on a CiA 402 axis that could not be carried out; the message says why."""
 
 
 class ModeControl(SetpointChecks):

@@ -8,14 +8,9 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint.snapshot import AxisSnapshot, DriveState
 from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig
-
-
-class JointError(DriveBridgeError):
-    """An intent that could not be carried out; the message names the joint and says why."""
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,8 @@ from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NMT_COMMANDS, NmtState
 from drive_bridge.config.errors import ConfigError
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.families.parameters import ParameterAccess, ParameterError
+from drive_bridge.families.errors import ParameterError
+from drive_bridge.families.parameters import ParameterAccess
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
 from drive_bridge.master.boot import boot_node, repeats_identically
 from drive_bridge.master.bus import BusHealth, FrameListener, FrameTap, TappedBus, open_bus

@@ -49,9 +49,10 @@ from drive_bridge.cia402.modes import Mode, mode_name, parse_mode
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.families.opendrive import objects as od
 from drive_bridge.families.opendrive.alarms import alarm_text, emcy_alarm_word
+from drive_bridge.families.opendrive.errors import RunLogicError
 from drive_bridge.families.opendrive.options import DriveOptions
 from drive_bridge.families.opendrive.units import Units
-from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
@@ -65,10 +66,6 @@ MODES = (PV, PT)
 ESTIMATED = 'position estimated (integrated from velocity)'
 AT_REST_UNITS = 16  # |actual velocity element| at most this (0.1 % of its 16384 full scale): at rest
 Key = tuple[int, int]
-
-
-class RunLogicError(JointError):
-    """An intent on an OPEN drive axis that could not be carried out."""
 
 
 class RunLogicDriver:

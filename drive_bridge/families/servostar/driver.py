@@ -33,7 +33,7 @@ from dataclasses import replace
 
 from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.axis import HOLD_COMMAND, Axis
-from drive_bridge.cia402.modecontrol import AxisError
+from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.modes import mode_name, parse_mode
 from drive_bridge.cia402.profile import Cia402Profile, FaultModel
 from drive_bridge.cia402.statemachine import State
