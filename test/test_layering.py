@@ -14,6 +14,7 @@ Imports under ``if TYPE_CHECKING:`` are left out, as in .importlinter: they are 
 """
 from __future__ import annotations
 
+import inspect
 import re
 import shutil
 import subprocess
@@ -234,6 +235,16 @@ def test_index_detector_hits(line: str) -> None:
     'C = 0x200', "name = 'ax2070h'", 'BIT13 = 0x2000  # layering: not an index', 'v_2070h = 1'])
 def test_index_detector_misses(line: str) -> None:
     assert not manufacturer_indices(line)
+
+
+# --- the family boundary --------------------------------------------------------------------------
+
+def test_drive_family_table_names_every_hook() -> None:
+    """The hook table of the DriveFamily docstring lists every public method."""
+    from drive_bridge.families import interface
+    hooks = [n for n, v in vars(interface.DriveFamily).items() if not n.startswith('_') and inspect.isfunction(v)]
+    missing = [h for h in hooks if f'``{h}``' not in (interface.__doc__ or '')]
+    assert not missing, f'hooks missing from the table in drive_bridge/families/interface.py: {missing}'
 
 
 # --- the ros -> sim contract bites ----------------------------------------------------------------

@@ -98,7 +98,7 @@ class AxisProxy:
 
     @property
     def state(self) -> State:
-        return self._snapshot.state
+        return State(int(self._snapshot.state))
 
     @property
     def halted(self) -> bool:

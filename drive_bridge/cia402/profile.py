@@ -1,8 +1,9 @@
 """What the CiA 402 driver asks its drive family: the objects an axis uses, the modes it
 accepts and how each is streamed, the PVT record layout, the fault reset.
 
-Every answer has a plain CiA 402 default (:class:`Cia402Defaults`); a family overrides only
-what its manual says differs. ``drive_bridge.families.DriveFamily`` implements this protocol.
+``drive_bridge.families.DriveFamily`` implements this protocol with a plain CiA 402 answer for
+each (:func:`standard_strategy` for the streaming); a family overrides only what its manual says
+differs.
 """
 from __future__ import annotations
 

@@ -9,7 +9,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 |----------------------------------|--------------------------------------------------------|
 | how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``,                |
 |                                  | ``bootup_emcy_is_ambiguous``, ``nmt_reset_communication`` |
-| extra boot steps                 | ``boot_steps_before``, ``boot_steps_after``            |
+| extra boot steps                 | ``boot_steps_early``, ``boot_steps_before``,           |
+|                                  | ``boot_steps_after``                                   |
 | how is the node supervised?      | ``liveness``                                           |
 | how are PDOs configured?         | ``pdo_configuration``, ``pdo_comm_subindices``, ``select_pdo``, ``sent_on_write`` |
 | which objects carry the values?  | ``axis_objects``                                       |
@@ -22,6 +23,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | which writes decide the reaction | ``safety_object`` (and ``ParameterAccess.safety``),    |
 | to a lost master or the link?    | ``runs_on_without_master``, ``stop_run_on``            |
 | defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
+| what the EDS and PDOs cannot say | ``prepare_object_dictionary``, ``check_pdos``          |
+| the axis' own ``drive`` settings | ``parse_axis_options``                                 |
 | is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
 """
 from __future__ import annotations
