@@ -28,7 +28,7 @@ def core_role(config_path: str, seconds: float, out: str) -> None:
     window = Window()
     master.add_frame_listener(window)
     master.start()
-    executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
+    executor = TrajectoryExecutor(master.axes, cycle_period=config.master.cycle_period)
     master.add_cycle_listener(executor.check)
     master.add_emcy_listener(executor.on_emcy, safety=True)
     axes = list(master.axes.values())

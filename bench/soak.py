@@ -277,7 +277,7 @@ def run(seconds: float, seed: int = 1, log: Callable[[str], None] = print) -> So
     faulty = FaultyBus(can.Bus(interface='virtual', channel=config.bus.channel, receive_own_messages=False))
     sim = SimulatedBus(config).start()
     master = Master(config, bus=faulty)
-    executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
+    executor = TrajectoryExecutor(master.axes, cycle_period=config.master.cycle_period)
     soak = Soak(config, sim, faulty, master, executor, rng)
     master.add_event_listener(soak.events.append)
     master.add_emcy_listener(lambda e: soak.emcys.append((e.node_id, e.code)))

@@ -15,6 +15,7 @@ from canopen import ObjectDictionary
 
 JointType = Literal['revolute', 'prismatic']
 SdoScalar = int | float | str | bytes
+UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # s, the master's cycle when no SYNC runs on the bus
 
 
 @dataclass(frozen=True)
@@ -258,6 +259,17 @@ class MasterConfig:
     heartbeat_multiplier: float = 3.0  # consumer time = producer time * multiplier
     sync_window: float | None = None  # s, written to 0x1007 of every node that has it; None = not written
     realtime_priority: int | None = None  # SCHED_FIFO priority of the cycle thread; None = normal
+
+    @property
+    def sends_sync(self) -> bool:
+        """SYNC runs on the bus every ``sync_period`` (``sync_producer`` says who sends it); without
+        it the master updates on its own clock and synchronous PDOs are not used."""
+        return self.sync_period > 0
+
+    @property
+    def cycle_period(self) -> float:
+        """The master's update period: the SYNC period, else UPDATE_PERIOD_WITHOUT_SYNC."""
+        return self.sync_period if self.sends_sync else UPDATE_PERIOD_WITHOUT_SYNC
 
 
 @dataclass(frozen=True)

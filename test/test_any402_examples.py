@@ -42,7 +42,7 @@ def test_example_config_boots_and_moves(line: str) -> None:
         assert lines == [f'node {node.node_id} ({node.name}): {node.pdo_summary}',
                          f"axis '{axis.joint}' (node {node.node_id} {node.name}, slot 0): mode {EXAMPLES[line]}"
                          + lines[1].split(f'mode {EXAMPLES[line]}', 1)[1]]
-        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.cycle_period)
         master.add_cycle_listener(executor.check)
         start = axis.snapshot().position
         handle = executor.submit(Trajectory((axis.joint,), (TrajectoryPoint(0.3, (start + 0.1,)),)))

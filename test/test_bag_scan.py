@@ -153,7 +153,7 @@ def enabled(joint: str, config: BusConfig) -> Iterator[tuple[JointDriver, Trajec
             # than the drive's heartbeat consumer time (300 ms) lay between their heartbeats
             axis.reset_fault(3.0)
         axis.enable(3.0)
-        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.cycle_period)
         master.add_cycle_listener(executor.check)
         yield axis, executor
     finally:

@@ -29,7 +29,7 @@ def lift_trajectory(master, seconds: float = 4.0) -> Trajectory:
 def test_a_node_whose_tpdos_stop_is_stale_its_joint_held_and_the_others_keep_streaming() -> None:
     with running(config_from(demo_data())) as (master, sim):
         events = Events(master)
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         master.add_cycle_listener(executor.check)
         for joint in OTHERS:
             stream_ramp(master, joint, 0.02)

@@ -1,4 +1,4 @@
-"""The package's shape, checked on its import graph and its text (no ROS, no bus).
+"""The package's shape, checked on its import graph, its text and its classes (no ROS, no bus).
 
 What import-linter's contracts (.importlinter) cannot say simply is checked here with grimp,
 import-linter's graph library:
@@ -7,6 +7,10 @@ import-linter's graph library:
   subpackages (cycles listed with the importing lines);
 - the generic layers (master, cia402, streaming, ros) name no drive vendor and no
   manufacturer-specific object (index 0x2000..0x5FFF): that knowledge belongs to a family;
+- a family (a module under families/ outside the boundary's own) subclasses no core class but
+  the documented extension points and error classes, and touches no core class's private
+  members (today's exceptions, the SERVOSTAR and S120 axes, listed to shrink to zero); the
+  DriveFamily docstring's table names every hook;
 - the `ros -> sim` contract really catches the ROS layer reaching into a simulator submodule
   (checked on a scratch copy of the package).
 
@@ -14,15 +18,27 @@ Imports under ``if TYPE_CHECKING:`` are left out, as in .importlinter: they are 
 """
 from __future__ import annotations
 
+import ast
+import inspect
 import re
 import shutil
 import subprocess
 import sys
+import textwrap
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 
 import grimp
 import pytest
+from boundarytools import (
+    any_core_privates,
+    core_private_uses,
+    core_privates,
+    family_classes,
+    foreign_uses,
+    is_core,
+    private_uses,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 PACKAGE = 'drive_bridge'
@@ -234,6 +250,84 @@ def test_index_detector_hits(line: str) -> None:
     'C = 0x200', "name = 'ax2070h'", 'BIT13 = 0x2000  # layering: not an index', 'v_2070h = 1'])
 def test_index_detector_misses(line: str) -> None:
     assert not manufacturer_indices(line)
+
+
+# --- the family boundary --------------------------------------------------------------------------
+
+# Where a family extends the core (docs/families.md): these classes, and any error class.
+EXTENSION_POINTS = frozenset({'drive_bridge.families.interface.DriveFamily',
+                              'drive_bridge.families.parameters.ParameterAccess'})
+# Today's exceptions: the SERVOSTAR and S120 drivers subclass the CiA 402 Axis and reach into
+# its private members, an extension interface nobody wrote down. Both lists must shrink to zero
+# with issue 23's axis from parts (an intents record, mode control as a component, AxisQuirks
+# handed in by the family): remove what is no longer used (the test says so), never add.
+AXIS_SUBCLASSES = {
+    'drive_bridge.families.servostar.driver.ServostarAxis': 'drive_bridge.cia402.axis.Axis',
+    'drive_bridge.families.s120.driver.S120Axis': 'drive_bridge.cia402.axis.Axis',
+}
+CORE_PRIVATES_USED = {
+    'drive_bridge.families.servostar.driver': frozenset({
+        '_apply_setpoint', '_check_limits', '_check_supported', '_cond', '_cycle_targets', '_device_command',
+        '_fault_reset_phase', '_fault_text', '_halt', '_message', '_mode', '_require_available',
+        '_reset_emcy_count', '_source', '_state_of', '_stop_deceleration', '_target_state', '_targets', '_value',
+        '_wait', '_way_out', '_where', '_write'}),
+    'drive_bridge.families.s120.driver': frozenset({
+        '_cond', '_mode', '_require_available', '_stop_deceleration', '_where', '_write'}),
+}
+
+
+def test_families_subclass_only_extension_points() -> None:
+    """A family's classes subclass DriveFamily, ParameterAccess, error classes or none of the core."""
+    wrong, kept = [], set()
+    for cls in family_classes():
+        for base in cls.__bases__:
+            name, base_name = f'{cls.__module__}.{cls.__qualname__}', f'{base.__module__}.{base.__qualname__}'
+            if not is_core(base.__module__) or base_name in EXTENSION_POINTS or issubclass(base, BaseException):
+                continue
+            if AXIS_SUBCLASSES.get(name) == base_name:
+                kept.add(name)
+            else:
+                wrong.append(f'{name} subclasses the core class {base_name}')
+    assert not wrong, ('a family extends the core through DriveFamily, ParameterAccess and error classes only:\n'
+                       + '\n'.join(wrong))
+    assert kept == set(AXIS_SUBCLASSES), (
+        f'no longer subclassed, remove from AXIS_SUBCLASSES: {set(AXIS_SUBCLASSES) - kept}')
+
+
+def test_families_touch_no_new_core_private() -> None:
+    """A family touches no private member of a core class beyond today's listed ones."""
+    found = core_private_uses()
+    new = {m: sorted(n) for m, u in found.items() if (n := u - CORE_PRIVATES_USED.get(m, frozenset()))}
+    gone = {m: sorted(g) for m, u in CORE_PRIVATES_USED.items() if (g := u - found.get(m, set()))}
+    assert not new, f"a family touches a core class's private members (ask for a hook or a part instead): {new}"
+    assert not gone, f'no longer used, remove from CORE_PRIVATES_USED: {gone}'
+
+
+def test_private_use_finders() -> None:
+    """A subclass's overrides and uses of the core's privates are found, its own are not; so are
+    privates read off another object anywhere in a module."""
+    from drive_bridge.cia402.axis import Axis
+    tree = ast.parse(textwrap.dedent('''
+        class Quirky(Axis):
+            def _write(self, key, value): ...  # an override
+            def run(self, other):
+                self._mode = 3
+                return other._where(), self._own, super()._halt()
+
+        def peek(axis):
+            return axis._cond, axis._not_a_core_name
+    '''))
+    node = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef))
+    assert private_uses(node, core_privates(type('Quirky', (Axis,), {}))) == {'_write', '_mode', '_where', '_halt'}
+    assert foreign_uses(tree, any_core_privates()) == {'_where', '_cond'}
+
+
+def test_drive_family_table_names_every_hook() -> None:
+    """The hook table of the DriveFamily docstring lists every public method."""
+    from drive_bridge.families import interface
+    hooks = [n for n, v in vars(interface.DriveFamily).items() if not n.startswith('_') and inspect.isfunction(v)]
+    missing = [h for h in hooks if f'``{h}``' not in (interface.__doc__ or '')]
+    assert not missing, f'hooks missing from the table in drive_bridge/families/interface.py: {missing}'
 
 
 # --- the ros -> sim contract bites ----------------------------------------------------------------

@@ -14,7 +14,7 @@ import pytest
 from canopen.objectdictionary import datatypes as dt
 
 from bustools import config_from, demo_data, eventually, running
-from drive_bridge.cia402.axis import AxisError
+from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import Setpoint
 from drive_bridge.master.errors import SdoError

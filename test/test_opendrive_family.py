@@ -25,10 +25,10 @@ from bustools import config_from, eventually, running, unique_channel
 from drive_bridge.cia301.emcy import Severity
 from drive_bridge.config import ConfigError
 from drive_bridge.families import get_family
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.opendrive import RunLogicDriver
 from drive_bridge.families.opendrive.alarms import alarm_text
 from drive_bridge.families.opendrive.parameters import Format
-from drive_bridge.families.parameters import ParameterError
 from drive_bridge.joint import DriveState, JointError, Setpoint
 from drive_bridge.master.events import EventKind
 from drive_bridge.master.master import Master

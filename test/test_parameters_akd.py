@@ -26,7 +26,7 @@ from drive_bridge.families.akd.parameters import (
     parse_reply,
     read_parameter_table,
 )
-from drive_bridge.families.parameters import ParameterError
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.master.master import Master
 from drive_bridge.sim.ascii_channel import PARAMETERS as SIM_PARAMETERS
 from drive_bridge.sim.store import key

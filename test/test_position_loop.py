@@ -43,7 +43,7 @@ def test_a_pv_joint_follows_a_trajectory_through_the_bridges_loop() -> None:
         axis = master.axes[JOINT]
         axis.enable(timeout=2.0)
         assert axis.stream_strategy() == 'position-loop'
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         errors: list[float] = []
 
         def watch(_cycle: int) -> None:
@@ -81,7 +81,7 @@ def test_a_following_error_beyond_the_limit_stops_the_stream_with_halt() -> None
     with running(config_from(loop_bus(following_error=0.02))) as (master, _sim):
         axis = master.axes[JOINT]
         axis.enable(timeout=2.0)
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         master.add_cycle_listener(executor.check)
         start = axis.snapshot().position
         # a trajectory faster than the joint's limits is refused whole (~15 rad/s^2 and 6 rad/s) ...

@@ -27,11 +27,11 @@ import yaml
 from akdtools import Sniffer
 from bustools import config_from, eventually, running, unique_channel
 from drive_bridge.cia301.emcy import Severity
-from drive_bridge.cia402.modecontrol import AxisError
+from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import ConfigError
 from drive_bridge.families import Liveness, get_family
-from drive_bridge.families.parameters import ParameterError
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.s120 import S120Axis, SinamicsS120, boot as s120_boot, emcy as s120_emcy, pdos as s120_pdos
 from drive_bridge.families.s120.errors import S120BootError
 from drive_bridge.families.s120.parameters import parse_name
@@ -422,7 +422,7 @@ def test_a_quintic_trajectory_on_a_pv_joint_through_the_bridges_loop() -> None:
         drive = sim.drive(WRIST)
         axis = enabled(master, 'wrist_joint')
         assert axis.stream_strategy() == 'position-loop'
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         errors: list[float] = []
 
         def watch(_cycle: int) -> None:

@@ -25,11 +25,11 @@ import yaml
 from akdtools import Sniffer
 from bustools import config_from, eventually, unique_channel
 from drive_bridge.cia301.emcy import Severity
-from drive_bridge.cia402.modecontrol import AxisError
+from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import ConfigError
 from drive_bridge.families import BootDetection, Liveness, PdoConfiguration, get_family
-from drive_bridge.families.parameters import ParameterError
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.servostar import Servostar, ServostarAxis, emcy as ss_emcy, pdos as ss_pdos
 from drive_bridge.families.servostar.parameters import TABLE, lookup
 from drive_bridge.joint import DriveState, Setpoint
@@ -410,7 +410,7 @@ def test_max_velocity_above_vlim_is_refused_naming_vlim() -> None:
 
 def _stream(master: Master, joint: str, points: list[TrajectoryPoint],
             watch: Any = None) -> tuple[TrajectoryExecutor, Any]:
-    executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+    executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
 
     def cycle(_cycle: int) -> None:
         executor.check()

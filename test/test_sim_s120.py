@@ -494,7 +494,8 @@ def test_heartbeat_and_guarding_exclude_each_other(bench: SimBench) -> None:
 
 # -- both real EDS files -----------------------------------------------------------------------------
 def _family_od(path: Path, slots: list[int]) -> ObjectDictionary:
-    from drive_bridge.families.registry import FamilyError, get_family
+    from drive_bridge.families.errors import FamilyError
+    from drive_bridge.families.registry import get_family
     try:
         family = get_family('sinamics_s120')
     except FamilyError:

@@ -15,7 +15,7 @@ def test_a_stalled_sync_thread_delays_the_trajectory_instead_of_faulting_the_dri
     with running(config_from(demo_data())) as (master, sim):
         axis = master.axes['elbow_joint']
         axis.enable(timeout=2.0)
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         master.add_cycle_listener(executor.check)
         stalled = []
 
@@ -48,7 +48,7 @@ def test_a_velocity_only_trajectory_is_integrated_and_streamed_in_csv() -> None:
     with running(config_from(demo_data())) as (master, sim):
         axis = master.axes['elbow_joint']
         axis.enable(timeout=2.0)
-        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.sync_period)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
         master.add_cycle_listener(executor.check)
         velocity_only = Trajectory(('elbow_joint',), (
             TrajectoryPoint(0.4, (), (0.3,)), TrajectoryPoint(0.8, (), (0.3,)), TrajectoryPoint(1.2, (), (0.0,))))

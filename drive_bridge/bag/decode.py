@@ -25,7 +25,6 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.families import Liveness, get_family
 from drive_bridge.joint import AxisSnapshot, JointDriver
 from drive_bridge.master.events import EventKind, Level
-from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.master.pdo import ObjectKey
 from drive_bridge.master.sync import SYNC_COB_ID
 from drive_bridge.model import BusConfig
@@ -85,8 +84,6 @@ class OfflineBus:
     def __init__(self, config: BusConfig) -> None:
         self.config = config
         master = config.master
-        self.sync_period = master.sync_period
-        period = master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
         self.nodes: dict[int, OfflineNode] = {}
         self.axes: dict[str, JointDriver] = {}
         self._by_cob: dict[int, Callable[[can.Message], Iterable[Decoded]]] = {}
@@ -97,7 +94,8 @@ class OfflineBus:
             node = OfflineNode(node_cfg, family, timeout)
             self.nodes[node.node_id] = node
             for axis_cfg in node_cfg.axes:
-                self.axes[axis_cfg.joint] = family.create_joint_driver(node, axis_cfg, node_cfg.timeouts, period)
+                self.axes[axis_cfg.joint] = family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
+                                                                       master.cycle_period)
             for cob_id in node.process.rx_layouts:
                 self._by_cob[cob_id] = self._tpdo_handler(node)
             for cob_id in node.rpdo_layouts:
@@ -144,8 +142,9 @@ class OfflineBus:
         """What did not fit the config: PDOs shorter than their mapping, a SYNC the recording lacks."""
         problems = [f'node {n.node_id} ({n.name}): {n.process.rx_errors} TPDO(s) shorter than the config maps, '
                     f'last: {n.process.last_rx_error}' for n in self.nodes.values() if n.process.rx_errors]
-        if self.sync_period and not self.syncs and self.axes:
-            problems.append(f'the config has master.sync_period {self.sync_period:g} s but the recording holds no '
+        master = self.config.master
+        if master.sends_sync and not self.syncs and self.axes:
+            problems.append(f'the config has master.sync_period {master.sync_period:g} s but the recording holds no '
                             f'SYNC frame (0x{SYNC_COB_ID:03X}): no joint or axis states decoded (decode with a config '
                             'whose sync_period is 0 to take them at each TPDO)')
         return problems
@@ -157,7 +156,7 @@ class OfflineBus:
     def _tpdo_handler(self, node: OfflineNode) -> Callable[[can.Message], Iterable[Decoded]]:
         def on_tpdo(msg: can.Message) -> Iterable[Decoded]:
             node.process.on_tpdo(msg.arbitration_id, bytes(msg.data), msg.timestamp)
-            return () if self.sync_period else self._cycle(msg.timestamp)
+            return () if self.config.master.sends_sync else self._cycle(msg.timestamp)
         return on_tpdo
 
     @staticmethod

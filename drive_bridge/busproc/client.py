@@ -38,10 +38,10 @@ from drive_bridge.busproc.intents import (
 from drive_bridge.busproc.proxies import AxisProxy, NodeProxy, ParameterAccessProxy
 from drive_bridge.busproc.reports import Ready
 from drive_bridge.busproc.snapshots import SnapshotCache
-from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.source import ConfigSource
 from drive_bridge.families import get_family
-from drive_bridge.families.parameters import ParameterAccess, ParameterError
+from drive_bridge.families.errors import ParameterError
+from drive_bridge.families.parameters import ParameterAccess
 from drive_bridge.joint import Setpoint
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.sdo import SdoPlain
@@ -60,7 +60,7 @@ class BusClient(Inbox):
         super().__init__()
         self.config = config
         self.source = source
-        period = config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
+        period = config.master.cycle_period
         self.nodes = {n.name: NodeProxy(n, get_family(n.family)) for n in config.nodes}
         self._by_id = {n.node_id: n for n in self.nodes.values()}
         self.axes = {a.joint: AxisProxy(self, n, a, period) for n in config.nodes for a in n.axes}

@@ -14,6 +14,10 @@ class BusProcessLost(RequestRefused):
     unavailable and nothing reaches the drives. ``str()`` says how it ended."""
 
 
+class Busy(RequestRefused):
+    """Too many requests are running or waiting in the bus process already."""
+
+
 class BusProcessStartError(DriveBridgeError):
     """The bus process could not start the bus (bad configuration, interface refused, ...);
     ``str()`` is the bus process's own message."""

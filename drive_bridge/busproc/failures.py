@@ -3,10 +3,9 @@
 so the ROS layer catches what it caught when the master ran in its own process."""
 from __future__ import annotations
 
-from drive_bridge.busproc.errors import BoundaryError, BusProcessLost, RemoteError
+from drive_bridge.busproc.errors import BoundaryError, BusProcessLost, Busy, RemoteError
 from drive_bridge.busproc.reports import Failure
-from drive_bridge.busproc.workers import Busy
-from drive_bridge.families.parameters import ParameterError
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.joint import JointError
 from drive_bridge.master.errors import ObjectAddress, SdoError
 from drive_bridge.streaming.errors import TrajectoryError

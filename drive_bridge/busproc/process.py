@@ -29,7 +29,7 @@ from drive_bridge.busproc.safestop import stop_all
 from drive_bridge.busproc.server import BusServer
 from drive_bridge.config.source import load
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.master.master import UPDATE_PERIOD_WITHOUT_SYNC, Master
+from drive_bridge.master.master import Master
 from drive_bridge.streaming.executor import TrajectoryExecutor
 
 log = logging.getLogger('drive_bridge.busproc')
@@ -79,7 +79,7 @@ class BusProcess:
                                          on_lost=self.node_lost, on_shutdown=self.shutdown)
         server.outbox.forward_frames = start.frames  # from the first frame: the node may record the boot
         master.start()
-        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC,
+        executor = TrajectoryExecutor(master.axes, cycle_period=config.master.cycle_period,
                                       pvt_segment=start.pvt_segment, pvt_lookahead=start.pvt_lookahead,
                                       scale_to_limits=config.trajectory.scale_to_limits)
         master.add_cycle_listener(executor.check)

@@ -21,6 +21,7 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.families import DriveFamily
 from drive_bridge.families.parameters import ParameterAccess, ParameterValue
 from drive_bridge.joint import AxisSnapshot, DriveState, JointError
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.master.sdo import od_data_type
 from drive_bridge.model import AxisConfig, NodeConfig
 from drive_bridge.streaming.executor import TrajectoryHandle
@@ -55,14 +56,14 @@ class AxisProxy:
         self._snapshot = _initial(self.joint, node, config)
         self._key: tuple[object, ...] = ()
         self._command_field: str | None = None
-        self._strategy: str | None = None
+        self._strategy: StreamStrategy | None = None
         self.lost_reason = ''
 
     # -- updates from the bus process (the client's reader threads) ------------------------------------
     def on_feedback(self, feedback: Feedback) -> None:
         self._feedback = feedback
 
-    def on_snapshot(self, snapshot: AxisSnapshot, command_field: str | None, strategy: str | None) -> None:
+    def on_snapshot(self, snapshot: AxisSnapshot, command_field: str | None, strategy: StreamStrategy | None) -> None:
         self._snapshot = snapshot
         self._command_field = command_field
         self._strategy = strategy
@@ -97,7 +98,7 @@ class AxisProxy:
 
     @property
     def state(self) -> State:
-        return self._snapshot.state
+        return State(int(self._snapshot.state))
 
     @property
     def halted(self) -> bool:
@@ -132,7 +133,7 @@ class AxisProxy:
         assert isinstance(values, dict)
         return float(values[self.joint])
 
-    def stream_strategy(self) -> str | None:
+    def stream_strategy(self) -> StreamStrategy | None:
         return self._strategy
 
     # -- intents (wait for the bus process's answer) ------------------------------------------------------

@@ -15,6 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from drive_bridge.joint.snapshot import AxisSnapshot
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.streaming.pvt import PvtStats
 
@@ -54,7 +55,7 @@ class AxisStates:
 
     snapshots: tuple[AxisSnapshot, ...]
     command_fields: tuple[str | None, ...]
-    strategies: tuple[str | None, ...]
+    strategies: tuple[StreamStrategy | None, ...]
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from typing import Any
 
 from drive_bridge.busproc import cyclic, wire
 from drive_bridge.busproc.capture import Capture
-from drive_bridge.busproc.errors import BoundaryError
+from drive_bridge.busproc.errors import BoundaryError, Busy
 from drive_bridge.busproc.failures import failure
 from drive_bridge.busproc.handlers import Handlers
 from drive_bridge.busproc.intents import (
@@ -36,7 +36,7 @@ from drive_bridge.busproc.intents import (
 )
 from drive_bridge.busproc.outbox import Outbox, axis_states
 from drive_bridge.busproc.reports import Failure, HandleState, Reply, StopOutcome
-from drive_bridge.busproc.workers import Busy, Workers
+from drive_bridge.busproc.workers import Workers
 from drive_bridge.master.master import Master
 from drive_bridge.streaming.executor import TrajectoryExecutor, TrajectoryHandle
 

@@ -7,11 +7,7 @@ import concurrent.futures
 import threading
 from collections.abc import Callable
 
-from drive_bridge.errors import RequestRefused
-
-
-class Busy(RequestRefused):
-    """Too many requests are running or waiting in the bus process already."""
+from drive_bridge.busproc.errors import Busy
 
 
 class Workers:

@@ -21,7 +21,8 @@ from dataclasses import replace
 from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402 import objects as obj, statemachine as sm
 from drive_bridge.cia402.drive_limits import describe, with_drive_limits
-from drive_bridge.cia402.modecontrol import PP_IDLE, AxisError, ModeControl
+from drive_bridge.cia402.errors import AxisError
+from drive_bridge.cia402.modecontrol import PP_IDLE, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
 from drive_bridge.cia402.statemachine import State

@@ -13,6 +13,7 @@ from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import bootmodes, objects as obj, statemachine as sm
+from drive_bridge.cia402.errors import AxisError, SetpointRefused
 from drive_bridge.cia402.modes import (
     CYCLIC_MODES,
     POSITION_MODES,
@@ -24,12 +25,13 @@ from drive_bridge.cia402.modes import (
     parse_mode,
 )
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
-from drive_bridge.cia402.setpoint_check import SetpointChecks, SetpointRefused, check_targets, seed_hold
+from drive_bridge.cia402.setpoint_check import SetpointChecks, check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.joint import BufferFeeder, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint import BufferFeeder, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
@@ -41,10 +43,6 @@ def _number(value: int | float | str | bytes) -> int:
     if isinstance(value, (str, bytes)):
         raise AxisError(f'expected a number, the drive sent {value!r}')
     return int(value)
-
-
-class AxisError(JointError):
-    """An intent on a CiA 402 axis that could not be carried out; the message says why."""
 
 
 class ModeControl(SetpointChecks):
@@ -76,7 +74,7 @@ class ModeControl(SetpointChecks):
     _stale: bool
     _written: dict[tuple[int, int], int | float]
     _message: str
-    _loop: PositionLoop | None  # the bridge's position loop (velocity modes, 'position-loop' strategy)
+    _loop: PositionLoop | None  # the bridge's position loop (velocity modes, StreamStrategy.POSITION_LOOP)
     _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
     _mode_problem: str  # why the axis has no usable mode ('' when it has one)
 
@@ -131,7 +129,7 @@ class ModeControl(SetpointChecks):
         return 0
 
     def _looped(self) -> bool:
-        return self.stream_strategy() == 'position-loop'
+        return self.stream_strategy() == StreamStrategy.POSITION_LOOP
 
     def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
         mode = self._mode
@@ -396,7 +394,7 @@ class ModeControl(SetpointChecks):
         """A CiA 402 axis follows any trajectory its streaming mode takes; a velocity-only
         one only in a velocity mode (its positions are integrated, not measured)."""
         self._require_mode()
-        if not has_positions and self.stream_strategy() != 'cyclic-velocity':
+        if not has_positions and self.stream_strategy() != StreamStrategy.CYCLIC_VELOCITY:
             raise AxisError(f'{self._where()}: a trajectory without positions needs a velocity streaming '
                             f'mode (csv); mode is {mode_name(self._mode)}')
 
@@ -406,11 +404,11 @@ class ModeControl(SetpointChecks):
         return ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
                 else 'effort' if mode in TORQUE_MODES else None)
 
-    def stream_strategy(self) -> str | None:
+    def stream_strategy(self) -> StreamStrategy | None:
         """How trajectories are streamed in the requested mode (the family decides); a
         velocity mode with the axis' ``position_loop`` set streams through the bridge's loop."""
         if self.config.position_loop.enabled and self._mode in VELOCITY_MODES:
-            return 'position-loop'
+            return StreamStrategy.POSITION_LOOP
         if self.profile is not None:
             return self.profile.streaming_strategy(self._mode, self.config.ip_submode)
         return standard_strategy(self._mode, self.config.ip_submode, None)

@@ -1,8 +1,9 @@
 """What the CiA 402 driver asks its drive family: the objects an axis uses, the modes it
 accepts and how each is streamed, the PVT record layout, the fault reset.
 
-Every answer has a plain CiA 402 default (:class:`Cia402Defaults`); a family overrides only
-what its manual says differs. ``drive_bridge.families.DriveFamily`` implements this protocol.
+``drive_bridge.families.DriveFamily`` implements this protocol with a plain CiA 402 answer for
+each (:func:`standard_strategy` for the streaming); a family overrides only what its manual says
+differs.
 """
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from typing import Protocol
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
+from drive_bridge.joint.strategy import StreamStrategy
 
 ObjectKey = tuple[int, int]
 
@@ -71,17 +73,18 @@ class Cia402Profile(Protocol):
 
     def axis_objects(self, slot: int) -> AxisObjects: ...
     def pvt_record(self, slot: int) -> PvtRecord | None: ...
-    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None: ...
+    def streaming_strategy(self, mode: int, ip_submode: int) -> StreamStrategy | None: ...
     def is_stream_fault(self, event: EmcyEvent) -> bool: ...
 
 
-def standard_strategy(mode: int, ip_submode: int, pvt_submode: int | None) -> str | None:
+def standard_strategy(mode: int, ip_submode: int, pvt_submode: int | None) -> StreamStrategy | None:
     """CiA 402's own streaming per mode: cyclic position (CSP) or velocity (CSV) set-points,
     IP linear or the family's PVT sub-mode; other modes take no trajectory."""
     if mode == Mode.CYCLIC_SYNC_POSITION:
-        return 'cyclic'
+        return StreamStrategy.CYCLIC
     if mode == Mode.CYCLIC_SYNC_VELOCITY:
-        return 'cyclic-velocity'
+        return StreamStrategy.CYCLIC_VELOCITY
     if mode == Mode.INTERPOLATED_POSITION:
-        return 'pvt' if pvt_submode is not None and ip_submode == pvt_submode and ip_submode != 0 else 'ip-linear'
+        pvt = pvt_submode is not None and ip_submode == pvt_submode and ip_submode != 0
+        return StreamStrategy.PVT if pvt else StreamStrategy.IP_LINEAR
     return None

@@ -8,9 +8,9 @@ from __future__ import annotations
 import threading
 from collections.abc import Mapping
 
+from drive_bridge.cia402.errors import SetpointRefused
 from drive_bridge.cia402.modes import CYCLIC_MODES, VELOCITY_MODES, Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, NodeIo, SetpointSource
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig
@@ -55,10 +55,6 @@ def seed_hold(guard: SetpointGuard, config: AxisConfig, targets: Mapping[str, in
     guard.seed('position', scaling.position_to_si(position) if position is not None else None, now)
     velocity = targets.get('target_velocity')
     guard.seed('velocity', scaling.velocity_to_si(velocity) if velocity is not None else None, now)
-
-
-class SetpointRefused(DriveBridgeError):
-    """A direct command the cycle check would refuse (raised as the axis' AxisError)."""
 
 
 class SetpointChecks:

@@ -19,7 +19,6 @@ from drive_bridge.model import BusConfig, MasterConfig, ModeChoice, NodeConfig, 
 
 WARN_LOAD = 0.70
 INTERPOLATED_POSITION = 7
-UPDATE_PERIOD_WITHOUT_SYNC = 0.01  # the master's cycle without SYNC (drive_bridge.master.master)
 
 
 @dataclass(frozen=True)
@@ -113,8 +112,8 @@ def _background(master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> tuple[fl
 
 def bus_budget(bus_bitrate: int | None, master: MasterConfig, nodes: tuple[NodeConfig, ...]) -> BusBudget:
     """The budget of one bus (see the module docstring for what is counted)."""
-    period = master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
-    sync = 1.0 if master.sync_period else 0.0
+    period = master.cycle_period
+    sync = 1.0 if master.sends_sync else 0.0
     bits = sync * frame_bits(0, stuffed=True)
     rpdos = tpdos = 0.0
     for node in nodes:

@@ -17,7 +17,7 @@ def sync_window_problem(master: MasterConfig, period_key: str = 'master.sync_per
     window = master.sync_window
     if window is None:
         return None
-    if master.sync_period <= 0:
+    if not master.sends_sync:
         return (f'{window * 1e6:.0f} µs needs a SYNC period ({period_key} is 0: no SYNC); '
                 'remove master.sync_window or give a SYNC period')
     if not 0 < window < master.sync_period:

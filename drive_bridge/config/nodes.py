@@ -164,7 +164,7 @@ def _axes_loc(node: Section) -> Loc:
 def _pdos(ctx: NodeContext, node: Section, name: str, node_id: int, family: DriveFamily,
           axes: list[AxisDraft], defaults_allowed: bool,
           od: ObjectDictionary | None) -> tuple[list[PdoDraft], PdoPlan | None]:
-    synchronous = ctx.master.sync_period > 0
+    synchronous = ctx.master.sends_sync
     transmission = 1 if synchronous else 255
     drafts: list[PdoDraft] = []
     explicit = {kind: parse_pdo_table(ctx.issues, node.get(kind), node.loc(kind), kind, node_id, name, transmission)

@@ -2,6 +2,7 @@
 cannot say; the one boundary the core talks to. Look families up by name with
 :func:`get_family`; add one with :func:`register_family` or the ``drive_bridge.families``
 entry point group."""
+from drive_bridge.families.errors import FamilyError
 from drive_bridge.families.interface import (
     BootDetection,
     DriveFamily,
@@ -10,14 +11,13 @@ from drive_bridge.families.interface import (
     PdoConfiguration,
 )
 from drive_bridge.families.registry import (
-                                             ENTRY_POINT_GROUP,
-                                             FamilyError,
-                                             discover_families,
-                                             families_for_identity,
-                                             family_names,
-                                             get_family,
-                                             register_family,
-                                             unregister_family,
+    ENTRY_POINT_GROUP,
+    discover_families,
+    families_for_identity,
+    family_names,
+    get_family,
+    register_family,
+    unregister_family,
 )
 
 # isort: split

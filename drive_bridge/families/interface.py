@@ -9,7 +9,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 |----------------------------------|--------------------------------------------------------|
 | how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``,                |
 |                                  | ``bootup_emcy_is_ambiguous``, ``nmt_reset_communication`` |
-| extra boot steps                 | ``boot_steps_before``, ``boot_steps_after``            |
+| extra boot steps                 | ``boot_steps_early``, ``boot_steps_before``,           |
+|                                  | ``boot_steps_after``                                   |
 | how is the node supervised?      | ``liveness``                                           |
 | how are PDOs configured?         | ``pdo_configuration``, ``pdo_comm_subindices``, ``select_pdo``, ``sent_on_write`` |
 | which objects carry the values?  | ``axis_objects``                                       |
@@ -22,6 +23,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | which writes decide the reaction | ``safety_object`` (and ``ParameterAccess.safety``),    |
 | to a lost master or the link?    | ``runs_on_without_master``, ``stop_run_on``            |
 | defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
+| what the EDS and PDOs cannot say | ``prepare_object_dictionary``, ``check_pdos``          |
+| the axis' own ``drive`` settings | ``parse_axis_options``                                 |
 | is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
 """
 from __future__ import annotations
@@ -43,6 +46,7 @@ from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
 
 if TYPE_CHECKING:
@@ -297,8 +301,8 @@ class DriveFamily:
         """Objects carrying an axis' actual and target values."""
         return AxisObjects.cia402(slot)
 
-    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None:
-        """How trajectories are streamed in ``mode``: 'cyclic', 'ip-linear', 'pvt' (None: not)."""
+    def streaming_strategy(self, mode: int, ip_submode: int) -> StreamStrategy | None:
+        """How trajectories are streamed in ``mode`` (None: the mode takes no trajectory)."""
         return standard_strategy(mode, ip_submode, self.pvt_submode)
 
     def pvt_record(self, slot: int) -> PvtRecord | None:

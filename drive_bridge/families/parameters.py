@@ -17,7 +17,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Protocol
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.families.errors import ParameterError
 
 
 class ParameterPort(Protocol):
@@ -37,20 +37,6 @@ class ParameterPort(Protocol):
     def sdo_read_raw(self, index: int, subindex: int) -> bytes: ...
 
     def sdo_write_raw(self, index: int, subindex: int, data: bytes) -> None: ...
-
-
-class ParameterError(DriveBridgeError):
-    """A parameter could not be read, written or saved; ``str()`` says where and why.
-
-    ``drive_text`` is the drive's own error text when the drive refused (else '').
-    """
-
-    def __init__(self, message: str, *, node_id: int | None = None, parameter: str = '',
-                 drive_text: str = '') -> None:
-        super().__init__(message)
-        self.node_id = node_id
-        self.parameter = parameter
-        self.drive_text = drive_text
 
 
 def node_label(port: ParameterPort) -> str:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 from importlib.metadata import entry_points
 
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.families.errors import FamilyError
 from drive_bridge.families.interface import DriveFamily, IdentityMatch
 from drive_bridge.model import Identity
 
@@ -20,13 +20,6 @@ log = logging.getLogger('drive_bridge.families')
 
 _REGISTRY: dict[str, type[DriveFamily]] = {}
 _entry_points_loaded = False
-
-
-class FamilyError(DriveBridgeError, KeyError):
-    """An unknown family name, or an entry point that does not load a DriveFamily."""
-
-    def __str__(self) -> str:  # KeyError would quote the message
-        return str(self.args[0]) if self.args else ''
 
 
 def register_family(cls: type[DriveFamily]) -> type[DriveFamily]:

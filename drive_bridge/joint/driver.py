@@ -8,13 +8,9 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint.snapshot import AxisSnapshot, DriveState
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig
-
-
-class JointError(DriveBridgeError):
-    """An intent that could not be carried out; the message names the joint and says why."""
 
 
 @dataclass(frozen=True)
@@ -107,9 +103,9 @@ class JointDriver(Protocol):
         ...
 
     # streaming
-    def stream_strategy(self) -> str | None:
-        """How trajectories are streamed in the current mode ('cyclic', 'ip-linear', 'pvt', ...),
-        None when the mode takes no trajectory."""
+    def stream_strategy(self) -> StreamStrategy | None:
+        """How trajectories are streamed in the current mode, None when the mode takes no
+        trajectory."""
         ...
     def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
         """Raise JointError when this joint cannot follow a trajectory with these fields

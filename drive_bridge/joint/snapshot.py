@@ -4,12 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from drive_bridge.cia301.emcy import EmcyEvent
-
-if TYPE_CHECKING:  # annotation only: the 402 state enum lives with the 402 vocabulary
-    from drive_bridge.cia402.statemachine import State
 
 
 class DriveState(IntEnum):
@@ -28,6 +25,16 @@ class DriveState(IntEnum):
         return self.name.lower()
 
 
+class DeviceState(Protocol):
+    """A drive profile's device state as a snapshot carries it (CiA 402: ``cia402.statemachine.State``,
+    which lives above this layer): a number for the interface package and a label for people."""
+
+    @property
+    def label(self) -> str: ...
+
+    def __int__(self) -> int: ...
+
+
 @dataclass(frozen=True)
 class AxisSnapshot:
     """Immutable state of one joint."""
@@ -39,7 +46,7 @@ class AxisSnapshot:
     available: bool
     nmt_state: str
     drive_state: DriveState
-    state: State  # CiA 402 state; State.UNKNOWN for drives without CiA 402
+    state: DeviceState  # the CiA 402 State; State.UNKNOWN for drives without CiA 402
     statusword: int
     controlword: int
     mode: int  # modes of operation display (0x6061), or the family's own mode code

@@ -268,7 +268,7 @@ def configure_heartbeat(node: NodeRuntime, master: MasterConfig) -> None:
 
 def configure_sync(node: NodeRuntime, master: MasterConfig) -> None:
     """Tell the node the communication cycle period (0x1006) the bridge's (or kernel's) SYNC runs at."""
-    if master.sync_period > 0 and master.sync_producer in ('bridge', 'kernel') and _has(node, 0x1006):
+    if master.sends_sync and master.sync_producer in ('bridge', 'kernel') and _has(node, 0x1006):
         period_us = round(master.sync_period * 1e6)
         _sdo_step(node, 'communication cycle period', lambda: node.sdo.write(0x1006, 0, period_us))
     configure_sync_window(node, master)

@@ -22,10 +22,10 @@ import canopen
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia301.nmt import NMT_COMMANDS, NmtState
-from drive_bridge.config.busbudget import UPDATE_PERIOD_WITHOUT_SYNC as UPDATE_PERIOD_WITHOUT_SYNC
 from drive_bridge.config.errors import ConfigError
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.families.parameters import ParameterAccess, ParameterError
+from drive_bridge.families.errors import ParameterError
+from drive_bridge.families.parameters import ParameterAccess
 from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
 from drive_bridge.master.boot import boot_node, repeats_identically
 from drive_bridge.master.bus import BusHealth, FrameListener, FrameTap, TappedBus, open_bus
@@ -181,9 +181,8 @@ class Master:
             node.sync_count = self._sync_count
             node.on_setpoint_refused = functools.partial(self._setpoint_refused, node)
             for axis_cfg in node_cfg.axes:
-                period = cfg.master.sync_period or UPDATE_PERIOD_WITHOUT_SYNC
                 self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
-                                                                            period)
+                                                                            cfg.master.cycle_period)
         self.feedback.watch(self.network, self.nodes.values())
         self.unknown_frames.active = True
         self._start_cycle()
@@ -198,7 +197,7 @@ class Master:
     def _check_capabilities(self, raw: can.BusABC) -> None:
         """What the configuration needs of the interface, checked before anything runs on it."""
         cfg = self.config
-        if cfg.master.sync_period > 0 and cfg.master.sync_producer == 'kernel':
+        if cfg.master.sends_sync and cfg.master.sync_producer == 'kernel':
             try:
                 require_kernel_periodic(raw, cfg.bus.interface, cfg.bus.channel,
                                         str(cfg.path) if cfg.path else 'bus configuration')
@@ -212,17 +211,16 @@ class Master:
         def on_error(text: str) -> None:
             if not self.bus_down and not (self.bus is not None and self.bus.health().failing):
                 self._emit(EventKind.ERROR, Level.ERROR, text)  # a failing bus: once, as BUS_ERROR
-        if master.sync_period > 0 and master.sync_producer in ('external', 'kernel'):
+        if master.sends_sync and master.sync_producer in ('external', 'kernel'):
             self._cycle_count = 0  # the cycle follows each SYNC received (kernel: looped back)
             self.network.subscribe(SYNC_COB_ID, self._on_external_sync)
             if master.sync_producer == 'kernel' and self.bus is not None:
                 self.kernel_sync = KernelSync(self.bus, master.sync_period)
                 self.kernel_sync.start()
             return
-        period = master.sync_period if master.sync_period > 0 else UPDATE_PERIOD_WITHOUT_SYNC
-        self.sync = SyncProducer(self.network.send_message, period, send_sync=master.sync_period > 0,
-                                 on_error=on_error, feedback=self.feedback.wait if master.sync_period > 0 else None,
-                                 sync_window=master.sync_window if master.sync_period > 0 else None,
+        self.sync = SyncProducer(self.network.send_message, master.cycle_period, send_sync=master.sends_sync,
+                                 on_error=on_error, feedback=self.feedback.wait if master.sends_sync else None,
+                                 sync_window=master.sync_window if master.sends_sync else None,
                                  on_start=self._realtime_cycle if master.realtime_priority is not None else None)
         self.sync.add_at_sync(self.feedback.arm)
         self.sync.add_before_sync(self._before_sync)

@@ -90,10 +90,10 @@ class Bridge:
         self._entities = [e for e in _entities(node) if id(e) not in {id(x) for x in existing}]
         self.set_active(False)
         bus = config.bus
-        sync = config.master.sync_period
+        sync = f'every {config.master.sync_period * 1000:.1f} ms' if config.master.sends_sync else 'off'
         node.get_logger().info(
             f'bus {bus.interface}:{bus.channel} open with {len(config.nodes)} node(s), '
-            f'{len(self.master.axes)} joint(s); SYNC {"every %.1f ms" % (sync * 1000) if sync else "off"}; '
+            f'{len(self.master.axes)} joint(s); SYNC {sync}; '
             f'bus process {ready.pid}{"".join("; " + m for m in ready.messages)}')
 
     def _on_bus_lost(self, reason: str) -> None:

@@ -16,7 +16,7 @@ class StartupError(DriveBridgeError, RuntimeError):
 class NodeParameterRefused(DriveBridgeError, ValueError):
     """One or more of the node's ROS parameters are invalid (or start-time ones set while it
     runs); the message lists each. Not a drive's parameter: that is
-    :class:`drive_bridge.families.parameters.ParameterError`."""
+    :class:`drive_bridge.families.errors.ParameterError`."""
 
 
 class AccessRefused(RequestRefused):

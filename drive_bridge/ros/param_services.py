@@ -23,7 +23,8 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
 from drive_bridge.busproc.client import BusClient
-from drive_bridge.families.parameters import ParameterAccess, ParameterError, ParameterValue
+from drive_bridge.families.errors import ParameterError
+from drive_bridge.families.parameters import ParameterAccess, ParameterValue
 from drive_bridge.ros.access import AccessGuard
 from drive_bridge.ros.errors import RequestRefused
 from drive_bridge.ros.pool import BoundedPool, in_pool

@@ -82,7 +82,7 @@ def context_for(inputs: DiagnoseInputs) -> Context:
         from drive_bridge.families.registry import get_family
         ctx.bitrate = config.bus.bitrate
         ctx.master = config.master.node_id
-        ctx.sync_period = config.master.sync_period or None
+        ctx.sync_period = config.master.sync_period if config.master.sends_sync else None
         for node in config.nodes:
             ctx.nodes[node.node_id] = NodeInfo(
                 node.node_id, node.name, get_family(node.family), node.od,

@@ -66,9 +66,9 @@ from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.parameters import (
     ParameterAccess,
-    ParameterError,
     ParameterPort,
     ParameterValue,
     format_limit,

@@ -33,7 +33,7 @@ references go to 0 and the snapshot says the command is stale.
 
 Position: the drive has no position reference, so position commands are refused, unless the
 axis sets ``position_loop`` (gain, following error): then pv streams trajectories through the
-bridge's own loop ('position-loop': velocity = feed-forward + gain x error, on the measured or
+bridge's own loop (StreamStrategy.POSITION_LOOP: velocity = feed-forward + gain x error, on the measured or
 integrated position) and takes position commands; a following error beyond the limit stops
 the stream and halts the axis (references 0, RUN kept).
 """
@@ -49,13 +49,15 @@ from drive_bridge.cia402.modes import Mode, mode_name, parse_mode
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.families.opendrive import objects as od
 from drive_bridge.families.opendrive.alarms import alarm_text, emcy_alarm_word
+from drive_bridge.families.opendrive.errors import RunLogicError
 from drive_bridge.families.opendrive.options import DriveOptions
 from drive_bridge.families.opendrive.units import Units
-from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, JointError, NodeIo, Setpoint, SetpointSource
+from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, Timeouts
 
 PV = int(Mode.PROFILE_VELOCITY)
@@ -64,10 +66,6 @@ MODES = (PV, PT)
 ESTIMATED = 'position estimated (integrated from velocity)'
 AT_REST_UNITS = 16  # |actual velocity element| at most this (0.1 % of its 16384 full scale): at rest
 Key = tuple[int, int]
-
-
-class RunLogicError(JointError):
-    """An intent on an OPEN drive axis that could not be carried out."""
 
 
 class RunLogicDriver:
@@ -562,12 +560,12 @@ class RunLogicDriver:
         return 'velocity' if self._mode == PV else 'effort'
 
     # -- streaming ----------------------------------------------------------------------------------
-    def stream_strategy(self) -> str | None:
+    def stream_strategy(self) -> StreamStrategy | None:
         """Velocity set-points every cycle in pv (through the bridge's position loop when the axis
         sets one); no trajectory in pt."""
         if self._mode != PV:
             return None
-        return 'position-loop' if self._looped() else 'cyclic-velocity'
+        return StreamStrategy.POSITION_LOOP if self._looped() else StreamStrategy.CYCLIC_VELOCITY
 
     def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
         """In pv a trajectory is followed through its velocities (open loop: the drive has no

@@ -45,14 +45,15 @@ from typing import Any
 from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
-from drive_bridge.errors import DriveBridgeError
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.interface import DriveFamily, Liveness
 from drive_bridge.families.opendrive import alarms, objects as od, representation
 from drive_bridge.families.opendrive.driver import RunLogicDriver
+from drive_bridge.families.opendrive.errors import OpenDriveBootError
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
 from drive_bridge.families.opendrive.parameters import SAFETY_PARAMETERS, OpenDriveParameters
 from drive_bridge.families.opendrive.units import Units
-from drive_bridge.families.parameters import ParameterError, ParameterPort
+from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
 from drive_bridge.joint import JointDriver, NodeIo
@@ -66,10 +67,6 @@ APPLY_AT_ONCE = 254  # RPDO: applied at once (255 is not listed for this drive)
 EVERY_SYNC = 0  # TPDO: refreshed and sent at every SYNC (not CiA 301's acyclic meaning)
 EVENT_TIMER = 254  # TPDO: sent every event-timer period
 EVENT_TIMER_MS = 10
-
-
-class OpenDriveBootError(DriveBridgeError):
-    """A boot step of an OPEN drive found the drive unusable (the message says how to fix it)."""
 
 
 def _entry(index: int, bits: int, subindex: int = 0) -> PdoEntry:

@@ -29,10 +29,10 @@ import struct
 import threading
 from dataclasses import dataclass
 
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.opendrive import objects as od
 from drive_bridge.families.parameters import (
     ParameterAccess,
-    ParameterError,
     ParameterPort,
     ParameterValue,
     format_limit,

@@ -21,7 +21,7 @@ from dataclasses import replace
 
 from drive_bridge.cia402 import objects as cia
 from drive_bridge.cia402.axis import Axis
-from drive_bridge.cia402.modecontrol import AxisError
+from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import Cia402Profile
 from drive_bridge.cia402.statemachine import State

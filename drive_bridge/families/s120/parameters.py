@@ -34,9 +34,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.parameters import (
     ParameterAccess,
-    ParameterError,
     ParameterPort,
     ParameterValue,
     format_limit,

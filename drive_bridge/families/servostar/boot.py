@@ -14,16 +14,12 @@ from __future__ import annotations
 
 import logging
 
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.families.ports import NodePort
 from drive_bridge.families.servostar import objects as o, pdos
+from drive_bridge.families.servostar.errors import ServostarBootError
 from drive_bridge.families.servostar.units import DriveUnits
 
 log = logging.getLogger('drive_bridge.families.servostar')
-
-
-class ServostarBootError(DriveBridgeError):
-    """A boot step found the drive's settings unusable (the message names the parameter)."""
 
 
 def _read_int(node: NodePort, index: int, subindex: int, signed: bool = True) -> int:

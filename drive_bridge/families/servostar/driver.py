@@ -10,7 +10,7 @@
   the bridge did not see) by bit 7, after which the drive restarts: the reset waits until the
   master found the restarted drive and configured it again.
 - **Trajectory mode 0xFA (-6).** One absolute position setpoint 0x2022:04 per SYNC (the
-  family's streaming strategy 'cyclic'); its RPDO goes out every cycle, so the stream never
+  family's streaming strategy StreamStrategy.CYCLIC); its RPDO goes out every cycle, so the stream never
   pauses while the mode is active: idle and enabled, the axis holds the last setpoint (the
   actual position when it was enabled). A step between two setpoints of VLIM x period or
   more is never sent: a direct position command that would make one is refused, a trajectory
@@ -33,7 +33,7 @@ from dataclasses import replace
 
 from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.axis import HOLD_COMMAND, Axis
-from drive_bridge.cia402.modecontrol import AxisError
+from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.modes import mode_name, parse_mode
 from drive_bridge.cia402.profile import Cia402Profile, FaultModel
 from drive_bridge.cia402.statemachine import State

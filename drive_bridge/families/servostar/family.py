@@ -46,10 +46,12 @@ from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
 from drive_bridge.families.servostar import boot, emcy, objects as o, pdos
 from drive_bridge.families.servostar.driver import ServostarAxis, mode_label
+from drive_bridge.families.servostar.errors import ServostarBootError
 from drive_bridge.families.servostar.options import parse_options
 from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE, ServostarParameters
 from drive_bridge.families.servostar.units import DriveUnits
 from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
 from drive_bridge.resources import family_data
 
@@ -127,7 +129,7 @@ class Servostar(DriveFamily):
             vlim = units.joint_speed_limit(driver.options, axis.joint_type) if driver is not None else None
             limit = axis.limits.max_velocity
             if vlim is not None and limit is not None and limit > vlim * (1 + 1e-9):
-                raise boot.ServostarBootError(
+                raise ServostarBootError(
                     f"joint {axis.joint!r}: max_velocity {limit:g} exceeds the drive's speed limit VLIM (0x3622) = "
                     f'{units.vlim_rpm:g} rpm ({vlim:.6g} at the joint): the drive faults on steps beyond '
                     'VLIM x period; lower max_velocity or raise VLIM')
@@ -149,7 +151,7 @@ class Servostar(DriveFamily):
             streams = o.MODE_TRAJECTORY in (axis.mode, axis.position_mode)
             problem = boot.check_ptbase(period, sync, streams)
             if problem:
-                raise boot.ServostarBootError(f'joint {axis.joint!r} streams in mode {mode_label(o.MODE_TRAJECTORY)}: '
+                raise ServostarBootError(f'joint {axis.joint!r} streams in mode {mode_label(o.MODE_TRAJECTORY)}: '
                                               f'{problem}')
             if abs(period - sync) > 1e-6:
                 log.warning('node %d (%s): PTBASE is %g ms, the SYNC period %g ms: mode 0xFA will be refused',
@@ -168,10 +170,10 @@ class Servostar(DriveFamily):
                            effort_actual=o.TORQUE_ACTUAL, target_position=o.TRAJECTORY_SETPOINT,
                            target_velocity=o.TARGET_VELOCITY, target_effort=(0x2060, 0))
 
-    def streaming_strategy(self, mode: int, ip_submode: int) -> str | None:
-        """Mode 0xFA: one absolute position setpoint per SYNC ('cyclic')."""
+    def streaming_strategy(self, mode: int, ip_submode: int) -> StreamStrategy | None:
+        """Mode 0xFA: one absolute position setpoint per SYNC (cyclic, as CSP)."""
         if mode == o.MODE_TRAJECTORY:
-            return 'cyclic'
+            return StreamStrategy.CYCLIC
         return standard_strategy(mode, ip_submode, None)
 
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,

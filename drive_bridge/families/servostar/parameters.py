@@ -31,9 +31,9 @@ from typing import Final
 from canopen import ObjectDictionary
 from canopen.objectdictionary import ODRecord, ODVariable, datatypes as dt
 
+from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.parameters import (
     ParameterAccess,
-    ParameterError,
     ParameterPort,
     ParameterValue,
     format_limit,
