@@ -5,16 +5,13 @@ the bus process handles at most a few command messages per cycle, whatever a cli
 from __future__ import annotations
 
 import threading
-from typing import TYPE_CHECKING
 
 from drive_bridge.busproc.intents import DirectCommands, JointCommand
-
-if TYPE_CHECKING:
-    from drive_bridge.busproc.client import BusClient
+from drive_bridge.busproc.ports import CommandClient
 
 
 class CommandSender:
-    def __init__(self, client: BusClient, period: float) -> None:
+    def __init__(self, client: CommandClient, period: float) -> None:
         self.client = client
         self.period = period
         self.sent = 0

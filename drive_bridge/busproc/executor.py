@@ -13,23 +13,20 @@ import itertools
 import threading
 import time
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
 
 from drive_bridge.busproc.intents import Query, Stop, TrajectoryChunk, chunk_points
+from drive_bridge.busproc.ports import ExecutorClient
 from drive_bridge.busproc.proxies import HandleProxy
 from drive_bridge.busproc.reports import FeederState, HandleState
 from drive_bridge.joint.strategy import NOT_STREAMED
 from drive_bridge.streaming.trajectory import JointSample, Trajectory
-
-if TYPE_CHECKING:
-    from drive_bridge.busproc.client import BusClient
 
 SUBMIT_TIMEOUT = 30.0  # s for a trajectory's validation and answer (the sync submit)
 STOP_TIMEOUT = 2.0  # s for the stop lane's answer that the trajectories ended
 
 
 class ExecutorProxy:
-    def __init__(self, client: BusClient, pvt_segment: float, pvt_lookahead: float) -> None:
+    def __init__(self, client: ExecutorClient, pvt_segment: float, pvt_lookahead: float) -> None:
         self.client = client
         self._pvt_segment = pvt_segment
         self._pvt_lookahead = pvt_lookahead

@@ -8,10 +8,11 @@ wait for its answer; stops go on the stop lane.
 """
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from drive_bridge.busproc.cyclic import Feedback
 from drive_bridge.busproc.intents import AxisIntent, AxisIntentName, ParameterCall, Query, Stop
@@ -25,9 +26,6 @@ from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.master.sdo import od_data_type
 from drive_bridge.model import AxisConfig, NodeConfig
 from drive_bridge.streaming.executor import TrajectoryHandle
-
-if TYPE_CHECKING:
-    from drive_bridge.busproc.client import BusClient
 
 NO_FEEDBACK: Feedback = (False, math.nan, math.nan, math.nan, 0.0)
 INTENT_MARGIN = 5.0  # s an intent's answer may take beyond its own timeout
@@ -43,10 +41,19 @@ def _initial(joint: str, node: NodeConfig, config: AxisConfig) -> AxisSnapshot:
         halted=False, command_stale=False, last_emcy=None, message='bus process starting')
 
 
+class AxisClient(Protocol):
+    """What an axis's stand-in needs of :class:`~.client.BusClient` (which builds it, so it is not
+    named here): an intent waits for its answer on the request lane, a stop goes on the stop lane."""
+
+    def call(self, body: object, timeout: float | None = None) -> object: ...
+
+    def stop(self, body: Stop) -> concurrent.futures.Future[object]: ...
+
+
 class AxisProxy:
     """One joint of the bus process (the JointDriver protocol's reading side and intents)."""
 
-    def __init__(self, client: BusClient, node: NodeConfig, config: AxisConfig, cycle_period: float) -> None:
+    def __init__(self, client: AxisClient, node: NodeConfig, config: AxisConfig, cycle_period: float) -> None:
         self.client = client
         self.joint = config.joint
         self.config = config

@@ -7,22 +7,19 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import threading
-from typing import TYPE_CHECKING
 
 from drive_bridge.busproc.intents import Query
+from drive_bridge.busproc.ports import SnapshotClient
 from drive_bridge.cia301.nmt import NmtState
 from drive_bridge.master.busload import BusTraffic
 from drive_bridge.master.master import BusSnapshot
 from drive_bridge.master.node import BootState, NodeSnapshot
 
-if TYPE_CHECKING:
-    from drive_bridge.busproc.client import BusClient
-
 FIRST_WAIT = 2.0  # s the first read waits for the bus process's answer
 
 
 class SnapshotCache:
-    def __init__(self, client: BusClient) -> None:
+    def __init__(self, client: SnapshotClient) -> None:
         self.client = client
         self._last: BusSnapshot | None = None
         self._asking: concurrent.futures.Future[object] | None = None
