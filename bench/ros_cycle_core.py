@@ -13,7 +13,7 @@ import sys
 import threading
 from pathlib import Path
 
-from bench.ros_cycle import WARMUP, Window, trajectory_points
+from bench.ros_cycle_common import WARMUP, Window, trajectory_points
 
 ENABLE_TIMEOUT = 30.0  # s, as the bridge role's wait for OPERATION ENABLED
 
