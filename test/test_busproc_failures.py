@@ -266,7 +266,11 @@ def test_the_node_dying_by_an_unhandled_exception_quick_stops_every_axis_then_di
 def test_the_node_killed_a_drive_that_runs_on_by_itself_gets_its_family_stop_until_at_rest(
         ros: RosHarness, tmp_path: Path) -> None:
     data = yaml.safe_load(OPENDRIVE_EXAMPLE.read_text())
-    data['nodes']['opendrive']['command_timeout_ms'] = 60000  # the dead-man does not stop it first
+    node = data['nodes']['opendrive']
+    node['command_timeout_ms'] = 60000  # the dead-man does not stop it first
+    # node life time 1 s (the example's 300 ms): the drive runs in this test's process, and a stall
+    # of it on a busy machine lost the guarding (the node then unavailable when the node died)
+    node['life_time_factor'] = 10
     with bridge_process(tmp_path, data, 'command_interface:=velocity') as (bridge, sim, sniffer):
         drive = sim.drive(OPEN_NODE)
         axes: list[AxisStates] = []
