@@ -8,6 +8,11 @@ every controlword the bridge sends.
 - The node process killed (SIGKILL): its bus process brings every enabled axis to a quick stop
   at once, and once at rest disables it (``on_node_loss: disable``) or holds it in quick stop
   active (``hold``); nothing is enabled again.
+- The node process dying by an unhandled exception (its executor raising while it spins, as
+  an rclpy error would: the callbacks themselves are guarded): the same controlled stop.
+- The node process killed while a drive that runs on by itself (the OPEN drive,
+  ``runs_on_without_master``) turns: its bus process gives it its family's stop (RUN low and
+  references 0, by PDO and by SDO) and keeps the bus until the drive reports it is at rest.
 - The bus process killed: the node reports every joint unavailable and an ERROR on
   /diagnostics, refuses commands with that reason, and exits with code 3.
 """
@@ -15,6 +20,7 @@ from __future__ import annotations
 
 import os
 import signal
+import struct
 import subprocess
 import sys
 import threading
@@ -44,8 +50,13 @@ NS = '/drive_bridge'
 RPDO1 = {2: 0x202, 3: 0x203, 4: 0x204}  # controlword of axis 0 (node 3's second axis: RPDO3)
 RPDO3_ARM = 0x403
 QUICK_STOP_MASK, QUICK_STOP = 0x0087, 0x0002  # controlword "quick stop": bit 1 set, bits 0, 2, 7 clear
-ENABLE_MASK, ENABLE_OPERATION = 0x008F, 0x000F
+ENABLE_MASK, ENABLE_OPERATION, DISABLE_OPERATION = 0x008F, 0x000F, 0x0007
 BRAKE_DELAY = 0.3  # s: base_joint's on_node_loss brake delay
+OPENDRIVE_EXAMPLE = REPO / 'config' / 'opendrive_example.yaml'
+OPEN_NODE = 1  # the example's OPEN drive: RPDO1 (0x201F logic word, 0x201A speed, 0x201C torque)
+OPEN_RPDO1, OPEN_TPDO1, OPEN_SDO_RX, SYNC = 0x200 + OPEN_NODE, 0x180 + OPEN_NODE, 0x600 + OPEN_NODE, 0x80
+RUN = 0x0001  # 0x201F bit 0
+AT_REST_UNITS = 16  # |0x2012[0]| at most this: at rest (the family's own threshold)
 
 
 class Sniffer:
@@ -73,9 +84,32 @@ class Sniffer:
         self.bus.shutdown()
 
 
+BRIDGE = 'from drive_bridge.cli.bridge import bridge_main; bridge_main()'
+# the bridge whose executor raises in its spin once the file DRIVE_BRIDGE_TEST_RAISE names exists
+# (a wrapper of this test: no hook in the bridge)
+RAISING_BRIDGE = """
+import os
+from rclpy.executors import SingleThreadedExecutor
+from drive_bridge.cli.bridge import bridge_main
+
+trigger = os.environ['DRIVE_BRIDGE_TEST_RAISE']
+spin_once = SingleThreadedExecutor.spin_once
+
+def raising_spin_once(self, timeout_sec=None):
+    if os.path.exists(trigger):
+        raise RuntimeError('injected by the test: an unhandled exception in the spinning node')
+    return spin_once(self, timeout_sec)
+
+SingleThreadedExecutor.spin_once = raising_spin_once
+bridge_main()
+"""
+
+
 @contextmanager
-def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subprocess.Popen[str], Any, Sniffer]]:
-    """The node process (with its bus process) on a local bus, the simulated drives here."""
+def bridge_process(tmp_path: Path, data: dict[str, Any], *params: str, program: str = BRIDGE,
+                   ) -> Iterator[tuple[subprocess.Popen[str], Any, Sniffer]]:
+    """The node process (with its bus process) on a local bus, the simulated drives here;
+    ``params``: more ROS parameters (``name:=value``); ``program``: what ``python -c`` runs."""
     data = local_data(data)
     # the drives run in this test's process, beside its ROS harness: on a busy 2-core machine a
     # stall of it over 300 ms lost heartbeats both ways (EMCY 0x8130, the trajectory refused)
@@ -86,8 +120,8 @@ def bridge_process(tmp_path: Path, data: dict[str, Any]) -> Iterator[tuple[subpr
     config = tmp_path / 'bus.yaml'
     config.write_text(yaml.safe_dump(bridge_data, sort_keys=False))
     env = {**os.environ, 'PYTHONPATH': str(REPO)}
-    bridge = spawn([sys.executable, '-c', 'from drive_bridge.cli.bridge import bridge_main; bridge_main()',
-                    str(config), '--ros-args', '-p', 'auto_enable:=true'], tmp_path / 'bridge.log', env=env)
+    bridge = spawn([sys.executable, '-c', program, str(config), '--ros-args', '-p', 'auto_enable:=true',
+                    *(arg for param in params for arg in ('-p', param))], tmp_path / 'bridge.log', env=env)
     try:
         yield bridge, sim, sniffer
     finally:
@@ -185,6 +219,91 @@ def test_the_node_killed_its_bus_process_quick_stops_every_axis_then_disables_or
         bus.send_signal(signal.SIGTERM)  # ends the hold: the bus process releases the bus
         bus.wait(10)  # ended (its exit code goes to whoever adopted it)
         assert not bus.is_running()
+
+
+def test_the_node_dying_by_an_unhandled_exception_quick_stops_every_axis_then_disables_it_at_rest(
+        ros: RosHarness, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    trigger = tmp_path / 'raise'
+    monkeypatch.setenv('DRIVE_BRIDGE_TEST_RAISE', str(trigger))
+    data = demo_data()
+    # base and lift stay in quick stop active at the end of it (0x605A = 6): only the bridge's
+    # disable, once at rest and after the brake delay, takes them out of it
+    for name in ('base_drive', 'lift_drive'):
+        node = data['nodes'][name]
+        node['axes'][0]['on_node_loss'] = {'action': 'disable', 'brake_delay': BRAKE_DELAY}
+        node['sdo'] = [{'index': 0x605A, 'sub_index': 0, 'value': 6}]
+    with bridge_process(tmp_path, data, program=RAISING_BRIDGE) as (bridge, sim, sniffer):
+        enabled_and_moving(ros, sim)
+        bus, = bus_processes(bridge)
+        trigger.touch()
+        raised = time.monotonic()
+        assert bridge.wait(15) != 0
+        assert 'injected by the test: an unhandled exception in the spinning node' in output(bridge)
+
+        def stopped(cob_id: int) -> float | None:
+            return next((t for t, cw in sniffer.controlwords(cob_id, raised)
+                         if cw & QUICK_STOP_MASK == QUICK_STOP), None)
+        wait_for(lambda: all(stopped(c) for c in (*RPDO1.values(), RPDO3_ARM)), 5,
+                 'a quick-stop controlword to every axis')
+        bus.wait(20)  # no axis holds: it ends once every axis is stopped and disabled (then the
+        # drives' heartbeat consumers see the master go and fault: the state to check is on the bus)
+        for joint, cob_id in (('base_joint', RPDO1[2]), ('lift_joint', RPDO1[4])):
+            words = sniffer.controlwords(cob_id, stopped(cob_id) or raised)
+            assert not [cw for _, cw in words if cw & ENABLE_MASK == ENABLE_OPERATION], f'{joint} enabled again'
+            # quick stop, kept until at rest and the brake delay has passed, then disabled (out of
+            # quick stop active by 'disable voltage', on to switched on: operation disabled)
+            leaving = next((t for t, cw in words if cw & QUICK_STOP_MASK != QUICK_STOP), None)
+            assert leaving is not None, f'{joint} left in quick stop active: never disabled'
+            assert DISABLE_OPERATION in {cw & ENABLE_MASK for t, cw in words if t >= leaving}, f'{joint} not disabled'
+            assert leaving - words[0][0] >= BRAKE_DELAY / 2, f'{joint} disabled {leaving - words[0][0]:.3f} s after'
+            assert f'{joint}: quick stop, at rest, disabled after the 300 ms brake delay' in output(bridge)
+        for cob_id in (RPDO1[3], RPDO3_ARM):  # option code 2: disabled by the drive or the bridge
+            words = sniffer.controlwords(cob_id, stopped(cob_id) or raised)
+            assert not [cw for _, cw in words if cw & ENABLE_MASK == ENABLE_OPERATION]
+        assert 'node process lost' in output(bridge)  # the bus process's log: its node-loss stop
+
+
+def test_the_node_killed_a_drive_that_runs_on_by_itself_gets_its_family_stop_until_at_rest(
+        ros: RosHarness, tmp_path: Path) -> None:
+    data = yaml.safe_load(OPENDRIVE_EXAMPLE.read_text())
+    node = data['nodes']['opendrive']
+    node['command_timeout_ms'] = 60000  # the dead-man does not stop it first
+    # node life time 1 s (the example's 300 ms): the drive runs in this test's process, and a stall
+    # of it on a busy machine lost the guarding (the node then unavailable when the node died)
+    node['life_time_factor'] = 10
+    with bridge_process(tmp_path, data, 'command_interface:=velocity') as (bridge, sim, sniffer):
+        drive = sim.drive(OPEN_NODE)
+        axes: list[AxisStates] = []
+        ros.node('fail_open_axes').create_subscription(AxisStates, f'{NS}/axis_states', axes.append, 10)
+        wait_for(lambda: axes and all(a.drive_state == a.DRIVE_ENABLED for a in axes[-1].axes), 40,
+                 'the spindle enabled by auto_enable')
+        commands = ros.node('fail_open_cmd').create_publisher(Float64MultiArray, f'{NS}/commands', 10)
+        wait_for(lambda: commands.get_subscription_count(), 10, 'the bridge subscribed')
+        for _ in range(5):
+            commands.publish(Float64MultiArray(data=[50.0]))  # rad/s: 477.5 rpm
+            time.sleep(0.05)
+        wait_for(lambda: abs(drive.speed_rpm - 477.5) < 5, 10, 'the motor at 477.5 rpm')
+        bus, = bus_processes(bridge)
+        os.kill(bridge.pid, signal.SIGKILL)
+        killed = time.monotonic()
+        bridge.wait(5)
+        bus.wait(20)  # no axis holds: it ends once the drive is stopped
+        ended = time.monotonic()
+        assert abs(drive.speed_rpm) < 1 and not drive.running
+        words = [(t, struct.unpack('<Ihh', d)) for t, c, d in list(sniffer.frames) if c == OPEN_RPDO1 and t >= killed]
+        stop = next((t for t, (word, speed, torque) in words if not word & RUN and speed == torque == 0), None)
+        assert stop is not None and stop - killed < 1.0, 'RUN low and references 0 by PDO within 1 s'
+        assert all(not word & RUN for t, (word, _s, _t) in words if t >= stop), 'RUN high again after the stop'
+        sdo = [d for t, c, d in list(sniffer.frames) if c == OPEN_SDO_RX and t >= killed and d[1:3] == b'\x1f\x20']
+        assert sdo, 'the family stop by SDO (0x201F) as well'
+        assert all(int.from_bytes(d[4:8], 'little') & RUN == 0 for d in sdo)
+        # the bus kept (SYNC) until the drive reported it was at rest: nothing was left running on
+        at_rest = next((t for t, c, d in list(sniffer.frames) if c == OPEN_TPDO1 and t >= stop
+                        and abs(struct.unpack_from('<h', d, 6)[0]) <= AT_REST_UNITS), None)
+        assert at_rest is not None, 'the drive never reported rest while the bus process ran'
+        last_sync = max(t for t, c, _d in list(sniffer.frames) if c == SYNC)
+        assert at_rest <= last_sync <= ended
+        assert "spindle_joint: quick stop and its family's stop, at rest" in output(bridge)  # the bus process's log
 
 
 def test_the_bus_process_killed_the_node_reports_every_joint_unavailable_and_exits(

@@ -1,6 +1,7 @@
 """The boundary between the node process and its bus process, without either process: what a
 lane carries (typed records only), its bounds (bytes per message, points per trajectory chunk,
-frames per batch, the frame queue) and the cyclic state's layout."""
+frames per batch, the frame queue, the outbox), the cyclic state's layout, and the outbox's
+drop count crossing in it from a bus server on a running Master."""
 from __future__ import annotations
 
 import concurrent.futures
@@ -10,12 +11,18 @@ import pickle
 import can
 import pytest
 
+from bustools import config_from, demo_data
 from drive_bridge.busproc import cyclic, outbox, wire
 from drive_bridge.busproc.errors import BoundaryError
 from drive_bridge.busproc.executor import ExecutorProxy
 from drive_bridge.busproc.intents import CHUNK_BYTES, CHUNK_POINTS, Request, Stop, TrajectoryChunk, chunk_points
-from drive_bridge.busproc.reports import FRAMES_PER_BATCH, Frames, unpack_frames
+from drive_bridge.busproc.reports import FRAMES_PER_BATCH, CommandRefused, Frames, Reply, unpack_frames
+from drive_bridge.busproc.server import BusServer
+from drive_bridge.master.master import Master
+from drive_bridge.sim import SimulatedBus
+from drive_bridge.streaming.executor import TrajectoryExecutor
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS, Trajectory, TrajectoryPoint
+from waittools import wait_for
 
 MAX_JOINT_NAMES = 64  # ros.message_limits: the most joints a trajectory message may name (not imported: no ROS here)
 
@@ -70,10 +77,11 @@ def test_the_longest_trajectory_on_a_wide_bus_crosses_in_chunks_within_the_limit
 
 def test_the_cyclic_state_round_trips_and_a_wrong_size_is_refused() -> None:
     joints = [(True, 0.5, -1.25, 0.01, 1.7e9), (False, 0.0, 0.0, 0.0, 0.0)]
-    data = cyclic.pack(2**32 + 5, 0.002, 3, 1, joints)
+    data = cyclic.pack(2**32 + 5, 0.002, 3, 1, joints, reports_dropped=42)
     assert len(data) == cyclic.size(2)
     state = cyclic.unpack(data, 2)
-    assert (state.sequence, state.lag, state.stalls, state.dropped, state.joints) == (5, 0.002, 3, 1, tuple(joints))
+    assert (state.sequence, state.lag, state.stalls, state.dropped, state.reports_dropped, state.joints) == (
+        5, 0.002, 3, 1, 42, tuple(joints))
     with pytest.raises(ValueError, match='expected'):
         cyclic.unpack(data, 3)
 
@@ -104,6 +112,61 @@ def test_frames_cross_in_bounded_batches_and_a_full_queue_counts_its_drops(monke
         box.stop()
         reader.close()
         bus_end.close()
+
+
+def test_a_full_outbox_drops_and_counts_reports_but_answers_still_go(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(outbox, 'MAX_RECORDS', 5)
+    node_end, bus_end = wire.lane_pair()
+    box = outbox.Outbox(wire.Lane(bus_end), lambda reason: None)
+    reader = wire.Lane(node_end)
+    try:
+        for k in range(8):  # the sender not started: the queue fills
+            box.put(CommandRefused('~/commands', f'refused {k}'))
+        assert len(box.records) == 5 and box.dropped_records == 3
+        box.put(Reply(7, None))  # an answer is never dropped: its request waits for it
+        assert len(box.records) == 6 and box.dropped_records == 3
+        box.start()
+        received = [reader.recv() for _ in range(6)]
+        assert [r.reason for r in received[:5] if isinstance(r, CommandRefused)] == [f'refused {k}' for k in range(5)]
+        assert received[5] == Reply(7, None)
+    finally:
+        box.stop()
+        reader.close()
+        bus_end.close()
+
+
+def test_the_outbox_drop_count_reaches_the_node_in_every_cyclic_state(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A bus server on a running Master, as the bus process runs it: with an outbox that takes
+    nothing, the Master's own reports (its boot events) are dropped, and each cyclic state the
+    node side reads says how many."""
+    monkeypatch.setattr(outbox, 'MAX_RECORDS', 0)
+    config = config_from(demo_data())
+    pairs = [wire.lane_pair() for _ in range(3)]
+    node_stop, node_requests, node_state = (wire.Lane(node) for node, _ in pairs)
+    sim = SimulatedBus(config).start()
+    master = Master(config)
+    server = BusServer(master, *(wire.Lane(bus) for _, bus in pairs), on_lost=lambda reason: None,
+                       on_shutdown=lambda reason: None)
+    try:
+        master.start()
+        server.start(TrajectoryExecutor(master.axes, cycle_period=config.master.cycle_period))
+        master.wait_until_operational(10.0)
+        wait_for(lambda: server.outbox.dropped_records > 0, 5, 'the boot events dropped by the full outbox')
+        joints = len(master.axes)
+        states: list[cyclic.CyclicState] = []
+        while not states or states[-1].reports_dropped == 0:  # the lane holds every state since the start
+            data = node_state.recv_bytes()
+            assert data is not None and len(states) < 100_000
+            states.append(cyclic.unpack(data, joints))
+        counts = [s.reports_dropped for s in states]
+        assert counts == sorted(counts)  # a running count
+        assert 0 < counts[-1] <= server.outbox.dropped_records
+    finally:
+        server.close()
+        master.stop()
+        sim.stop()
+        for lane in (node_stop, node_requests, node_state):
+            lane.close()
 
 
 def chunk(joints: int, points: int) -> TrajectoryChunk:

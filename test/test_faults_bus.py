@@ -9,9 +9,13 @@ from __future__ import annotations
 import threading
 import time
 
+from diagnostic_msgs.msg import DiagnosticStatus
+
 from bustools import config_from, demo_data, eventually
 from drive_bridge.cia402.statemachine import State
+from drive_bridge.master.busload import BusTraffic
 from drive_bridge.master.events import EventKind
+from drive_bridge.master.master import BusSnapshot
 from drive_bridge.ros.diagnostics import bus_status
 from faulttools import Events, SentTo, moving, running_faulty, stream_ramp
 
@@ -111,3 +115,17 @@ def test_an_interface_the_master_opened_is_reopened_while_it_keeps_failing(monke
         assert master.bus_reopens == 1 and opened[0]._is_shutdown
         events.wait(EventKind.BUS_BACK, 3.0)
         master.wait_until_operational(8.0)
+
+
+def test_reports_dropped_by_the_bus_process_outbox_warn_on_the_bus_status() -> None:
+    snapshot = BusSnapshot(nodes=(), axes=(), sync=None, bus_state='ACTIVE', channel='can0',
+                           traffic=BusTraffic(0, 0, 0.0, 0.0))
+    fine = bus_status(snapshot, 'bridge', reports_dropped=0)
+    assert fine.level == DiagnosticStatus.OK
+    assert {v.key: v.value for v in fine.values}['reports_dropped_at_boundary'] == '0'
+    status = bus_status(snapshot, 'bridge', reports_dropped=12)
+    assert status.level == DiagnosticStatus.WARN
+    assert status.message.startswith('12 reports of the bus process dropped (its outbox was full)')
+    assert {v.key: v.value for v in status.values}['reports_dropped_at_boundary'] == '12'
+    lost = bus_status(snapshot, 'bridge', 'bus process lost: killed', reports_dropped=12)
+    assert lost.level == DiagnosticStatus.ERROR  # a lost bus process says so first

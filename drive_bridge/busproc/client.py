@@ -76,6 +76,7 @@ class BusClient(Inbox):
         self._threads: list[threading.Thread] = []
         self.started = False
         self._closing = False
+        self.abandoned = False  # this process is dying: the bus process was left to a node-loss stop
 
     # -- lifecycle -------------------------------------------------------------------------------------
     def start(self, timeout: float = START_TIMEOUT) -> Ready:
@@ -108,8 +109,23 @@ class BusClient(Inbox):
         self.commands.start()
         return ready
 
+    def abandon(self) -> None:
+        """This process is dying (an unhandled exception): end the lanes without asking for a
+        shutdown, so the bus process stops every enabled axis as for a lost node (``safestop``:
+        quick stop, at rest, then disabled or held) and exits unless an axis holds. It is neither
+        waited for nor ended here; :meth:`close` does nothing afterwards."""
+        if self.abandoned or self.process is None:
+            return
+        self.abandoned = self._closing = True
+        log.error('the node process is dying: its bus process %d stops the axes as for a lost node', self.pid)
+        self.commands.stop()
+        for lane in (self.stop_lane, self.request_lane, self.state_lane):
+            lane.close()
+
     def close(self, timeout: float = SHUTDOWN_TIMEOUT) -> None:
         """Ask the bus process to stop the axes and release the bus; end it if it does not."""
+        if self.abandoned:
+            return
         self._closing = True
         self.commands.stop()
         process = self.process

@@ -52,6 +52,7 @@ class Inbox:
         self.events: list[BusEvent] = []
         self.frame_drops = 0  # frames the bus process could not forward (its queue was full)
         self.state_drops = 0  # cyclic states it could not send (this process's buffer was full)
+        self.report_drops = 0  # reports its full outbox dropped (events, EMCY, trajectory states, refusals)
         self._pending: dict[int, concurrent.futures.Future[object]] = {}
         self._pending_lock = threading.Lock()
         self._ready: concurrent.futures.Future[Ready] = concurrent.futures.Future()
@@ -123,6 +124,7 @@ class Inbox:
             for axis, feedback in zip(axes, state.joints):
                 axis.on_feedback(feedback)
             self.executor.lag, self.executor.stalls, self.state_drops = state.lag, state.stalls, state.dropped
+            self.report_drops = state.reports_dropped
             for listener in self._feedback_listeners:
                 try:
                     listener()

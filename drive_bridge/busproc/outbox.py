@@ -4,6 +4,8 @@ thread (the cycle, the CAN receive thread, supervision) ever waits for the node 
 - Records (answers, events, EMCY, handle changes) queue in :attr:`Outbox.records`, at most
   :data:`MAX_RECORDS`; beyond that a new record that is not an answer is dropped and counted
   (answers always go: a request waits for its own, and there are as many as requests in flight).
+  The count crosses in every cyclic state's header (:mod:`.cyclic`: not this lane, which is the
+  one that is full), and the first drop is logged here.
 - Axis snapshots are not queued: the cycle marks a joint changed (a cheap ``state_key``
   compare) and the sender builds and sends the snapshots of the marked joints.
 - Frames for recording queue as python-can messages (:meth:`on_frame`, a tap listener: one
@@ -69,6 +71,9 @@ class Outbox:
     def put(self, record: object) -> None:
         if len(self.records) >= MAX_RECORDS and not isinstance(record, Reply | Failure):
             self.dropped_records += 1
+            if self.dropped_records == 1:
+                log.warning('outbox full (%d records): reports to the node are dropped (first: %s); '
+                            'the count shows on /diagnostics', MAX_RECORDS, type(record).__name__)
             return
         self.records.append(record)
         self._wake.set()

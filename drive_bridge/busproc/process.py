@@ -25,7 +25,7 @@ import threading
 from drive_bridge.busproc import wire
 from drive_bridge.busproc.intents import Start
 from drive_bridge.busproc.reports import Farewell, Ready, StartFailed
-from drive_bridge.busproc.safestop import stop_all
+from drive_bridge.busproc.safestop import family_stops, stop_all
 from drive_bridge.busproc.server import BusServer
 from drive_bridge.config.source import load
 from drive_bridge.errors import DriveBridgeError
@@ -106,7 +106,7 @@ class BusProcess:
         master, server = self.master, self.server
         if not asked and master is not None and server is not None:
             log.error('%s: stopping every enabled axis', reason)
-            lines = stop_all(master.axes, server.executor, reason)
+            lines = stop_all(master.axes, server.executor, reason, family_stops(master.nodes.values()))
             for line in lines:
                 log.warning('%s', line)
             if any('held in quick stop active' in line for line in lines):

@@ -127,7 +127,8 @@ class BusServer:
             assert executor is not None
             self._sequence += 1
             data = cyclic.pack(self._sequence, executor.lag, executor.stalls, self.state_dropped,
-                               [axes[j].feedback() for j in self.joints])
+                               [axes[j].feedback() for j in self.joints],
+                               reports_dropped=self.outbox.dropped_records)
             if not self.state_lane.send_nowait(data):
                 self.state_dropped += 1
         except OSError as exc:

@@ -163,6 +163,12 @@ class Bridge:
         self.node.get_logger().info(f'auto_enable: enabled {", ".join(enabled) or "none"}'
                                     + (f'; failed {", ".join(failed)}' if failed else ''))
 
+    def abandon(self) -> None:
+        """This process is dying (an unhandled exception): the bus process is left to stop every
+        axis as for a lost node (``busproc.safestop``: at rest, then disabled or held), not asked
+        to end; :meth:`close` then releases only this side (the recording is still closed)."""
+        self.master.abandon()
+
     def close(self) -> None:
         """Stop motion safely and end the bus process (it releases the bus and the simulated
         drives). Idempotent."""
@@ -170,7 +176,7 @@ class Bridge:
             return
         self._closed = True
         self.state_topics.active = self.command_topics.active = False
-        if not self.master.lost:
+        if not self.master.lost and not self.master.abandoned:
             try:
                 self.trajectories.stop(list(self.master.axes), 'bridge shutting down')
             except Exception as exc:  # the bus process stops every axis at its shutdown anyway

@@ -24,7 +24,8 @@ def _ms(value: float) -> str:
 
 
 def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '',
-               boundary: Mapping[str, object] | None = None) -> DiagnosticStatus:
+               boundary: Mapping[str, object] | None = None, reports_dropped: int = 0) -> DiagnosticStatus:
+    """``reports_dropped``: reports the bus process's full outbox dropped so far (WARN once any)."""
     status = DiagnosticStatus(name=f'{PREFIX}: bus {snapshot.channel}', hardware_id=f'can {snapshot.channel}')
     traffic = snapshot.traffic
     values = dict(node=node_name, bus_state=snapshot.bus_state, rx_frames=traffic.rx_frames,
@@ -45,6 +46,11 @@ def bus_status(snapshot: BusSnapshot, node_name: str, lost: str = '',
                       cycle_errors=sync.hook_errors, late_setpoints=sync.late_setpoints)
         if sync.jitter_max > sync.period:
             status.level, status.message = WARN, f'SYNC jitter up to {_ms(sync.jitter_max)}'
+    values.update(reports_dropped_at_boundary=reports_dropped)
+    if reports_dropped:
+        status.level, status.message = WARN, (
+            f'{reports_dropped} reports of the bus process dropped (its outbox was full): events, EMCY, '
+            'trajectory states or command refusals may be missing')
     if lost:
         status.level, status.message = ERROR, lost
     elif snapshot.bus_state == 'STARTING':
@@ -105,9 +111,11 @@ def axis_status(axis: AxisSnapshot) -> DiagnosticStatus:
 
 
 def diagnostics(snapshot: BusSnapshot, node_name: str, lost: str = '',
-                boundary: Mapping[str, object] | None = None) -> DiagnosticArray:
-    """``lost``: why the bus process is gone ('' while it runs); ``boundary``: its figures."""
+                boundary: Mapping[str, object] | None = None, reports_dropped: int = 0) -> DiagnosticArray:
+    """``lost``: why the bus process is gone ('' while it runs); ``boundary``: its figures;
+    ``reports_dropped``: reports its full outbox dropped."""
     array = DiagnosticArray()
-    array.status = [bus_status(snapshot, node_name, lost, boundary), *(node_status(n) for n in snapshot.nodes),
+    array.status = [bus_status(snapshot, node_name, lost, boundary, reports_dropped),
+                    *(node_status(n) for n in snapshot.nodes),
                     *(axis_status(a) for a in snapshot.axes)]
     return array

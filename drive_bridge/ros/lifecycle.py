@@ -86,6 +86,11 @@ class BusLifecycleNode(GuardedCallbacks, LifecycleNode):
     def close(self) -> None:
         self._release()
 
+    def abandon(self) -> None:
+        """This process is dying: its bus process (if configured) stops the axes as for a lost node."""
+        if self.bridge is not None:
+            self.bridge.abandon()
+
     def destroy_node(self) -> None:
         """Destroying the node ends its bus process too (stopping the axes first)."""
         self._release()

@@ -42,7 +42,8 @@ BUS_LOST_LINGER = 1.0  # s the node keeps answering (refusing, with the reason) 
 
 def run(config_path: str, args: list[str], managed: bool = False) -> int:
     """Spin a bus node (or its lifecycle variant) until Ctrl-C (exit 0) or until its bus
-    process is lost (exit 3); a node that cannot start exits 2."""
+    process is lost (exit 3); a node that cannot start exits 2. An unhandled exception while
+    it spins is raised after the node has abandoned its bus process (a node loss for it)."""
     rclpy.init(args=args)
     try:
         node: BusNode | BusLifecycleNode = BusLifecycleNode(config_path) if managed else BusNode(config_path)
@@ -72,6 +73,9 @@ def run(config_path: str, args: list[str], managed: bool = False) -> int:
                     break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:  # unhandled (the callbacks are guarded: rclpy's own): this process dies
+        node.abandon()  # its bus process stops the axes as for a lost node, not as asked to end
+        raise
     finally:
         node.close()
         executor.shutdown()

@@ -39,6 +39,10 @@ class BusNode(GuardedCallbacks, Node):
     def close(self) -> None:
         self.bridge.close()
 
+    def abandon(self) -> None:
+        """This process is dying: its bus process stops the axes as for a lost node."""
+        self.bridge.abandon()
+
     def destroy_node(self) -> None:
         """Destroying the node ends its bus process too (stopping the axes first)."""
         self.bridge.close()

@@ -219,7 +219,8 @@ class StateTopics:
         client = self.master
         boundary = {'bus_process': client.pid, 'frames_dropped_at_boundary': client.frame_drops,
                     'cyclic_states_dropped': client.state_drops, 'commands_coalesced': client.commands.coalesced}
-        array = diagnostics(client.snapshot(), self.node.get_fully_qualified_name(), client.lost, boundary)
+        array = diagnostics(client.snapshot(), self.node.get_fully_qualified_name(), client.lost, boundary,
+                            client.report_drops)
         array.status.extend(source() for source in self.diagnostic_sources)
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._publish(self.diagnostics, array)
