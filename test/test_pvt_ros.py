@@ -31,6 +31,9 @@ JOINT = 'joint1'
 @pytest.fixture
 def bridge(ros: RosHarness):
     data = yaml.safe_load(CONFIG.read_text())  # bridgetools: on a local bus, the AKD simulated in the test
+    # the drive runs in this test's process, beside its ROS harness: on a busy 2-core machine a
+    # stall of it (or of the bus process) over 300 ms lost the heartbeat (AKD F129, EMCY 0x8130)
+    data.setdefault('options', {})['heartbeat_multiplier'] = 10
     with bridge_with_sim(ros, data, [Parameter('auto_enable', value=True)]) as node:
         node.master.wait_until_operational(10.0)
         axis = node.master.axes[JOINT]
