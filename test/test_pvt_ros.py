@@ -21,11 +21,12 @@ from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
 from rostools import RosHarness, wait_for
-from timingtools import assert_follows
+from timingtools import BUSY_SLACK, assert_follows
 
 NS = '/drive_bridge'
 CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'akd_pvt_example.yaml'
 JOINT = 'joint1'
+SEGMENT, LOOKAHEAD = 0.04, 0.2  # s: pvt_segment, pvt_lookahead
 
 
 @pytest.fixture
@@ -34,7 +35,12 @@ def bridge(ros: RosHarness):
     # the drive runs in this test's process, beside its ROS harness: on a busy 2-core machine a
     # stall of it (or of the bus process) over 300 ms lost the heartbeat (AKD F129, EMCY 0x8130)
     data.setdefault('options', {})['heartbeat_multiplier'] = 10
-    with bridge_with_sim(ros, data, [Parameter('auto_enable', value=True)]) as node:
+    # points 40 ms apart kept 200 ms ahead (as test_faults_overflow.py): at the defaults (10 ms,
+    # 50 ms ahead) a bus process starved for 50 ms on a busy machine underflowed the buffer (EMCY
+    # 0x8585, the axis then held until ~/resume, by design), which no test here intends
+    params = [Parameter('auto_enable', value=True), Parameter('pvt_segment', value=SEGMENT),
+              Parameter('pvt_lookahead', value=LOOKAHEAD)]
+    with bridge_with_sim(ros, data, params) as node:
         node.master.wait_until_operational(10.0)
         axis = node.master.axes[JOINT]
         wait_for(lambda: axis.state is State.OPERATION_ENABLED, 10, 'enabled')
@@ -82,7 +88,7 @@ def test_pvt_follows_the_path_and_never_overflows_the_buffer(ros, bridge) -> Non
     assert_follows(errors, 0.03)  # rad, at up to 2 rad/s: cubic segments + one SYNC of timing
     wait_for(lambda: abs(position_of(states[-1]) - (here + 1.2)) < 1e-3, 3, 'the goal')
     feeder = bridge.trajectories.feeder(JOINT)
-    assert feeder.stats.points > 100 and feeder.stats.motions == 1
+    assert feeder.stats.points >= round(1.2 / SEGMENT) and feeder.stats.motions == 1
     assert feeder.stats.min_free >= 1  # the buffer never filled up
     assert not [e for e in emcys if e.error_code in (0x8584, 0x8585)]  # no overflow, no underflow
 
@@ -124,7 +130,7 @@ def test_pvt_replacement_splices_and_an_empty_trajectory_decelerates(ros, bridge
     time.sleep(0.7)
     publisher.publish(JointTrajectory(joint_names=[JOINT], points=[point(1.0, [here + 0.5])]))
     time.sleep(1.4)
-    wait_for(lambda: abs(position_of(states[-1]) - (here + 0.5)) < 1e-3, 3, 'the replacement goal')
+    wait_for(lambda: abs(position_of(states[-1]) - (here + 0.5)) < 1e-3, 3 + BUSY_SLACK, 'the replacement goal')
     velocities = [abs(dict(zip(m.name, m.velocity))[JOINT]) for m in states[-400:]]
     assert max(velocities) < 3.0  # the splice had no jump
 
