@@ -1,6 +1,6 @@
 """PVT streaming through ROS against a simulated Kollmorgen AKD (config/akd_pvt_example.yaml):
-the buffer is kept fed and never overflows, a starved stream underflows and is held, a
-replacement splices and an empty trajectory decelerates to a stop."""
+the buffer is kept fed and never overflows, a starved stream underflows and is held until
+resumed, a replacement splices and an empty trajectory decelerates to a stop."""
 from __future__ import annotations
 
 import time
@@ -11,6 +11,7 @@ import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import Emcy
+from drive_bridge_interfaces.srv import AxisCommand
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -93,16 +94,23 @@ def test_pvt_follows_the_path_and_never_overflows_the_buffer(ros, bridge) -> Non
     assert not [e for e in emcys if e.error_code in (0x8584, 0x8585)]  # no overflow, no underflow
 
 
-def test_a_starved_stream_underflows_and_the_axis_is_held(ros, bridge) -> None:
+def test_a_starved_stream_underflows_and_the_axis_is_held_until_resumed(ros, bridge) -> None:
     states, emcys, publisher = recorders(ros)
-    client = ActionClient(ros.node('pvt_action'), FollowJointTrajectory, f'{NS}/follow_joint_trajectory')
+    watcher = ros.node('pvt_action')
+    client = ActionClient(watcher, FollowJointTrajectory, f'{NS}/follow_joint_trajectory')
+    resume = watcher.create_client(AxisCommand, f'{NS}/resume')
     assert client.wait_for_server(timeout_sec=10)
     here = position_of(states[-1])
-    goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[JOINT], points=[
-        point(2.0, [here + 2.0])]))
-    sent = client.send_goal_async(goal)
-    handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal accepted')
-    result_future = handle.get_result_async()
+
+    def follow(target: float, duration: float):
+        goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[JOINT],
+                                                                     points=[point(duration, [target])]))
+        sent = client.send_goal_async(goal)
+        handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal answered')
+        assert handle.accepted
+        return handle.get_result_async()
+
+    result_future = follow(here + 2.0, 2.0)
     time.sleep(0.6)
     drive = bridge.simulation.drive(1)
     drive.drop_rpdos(True)  # the stream starves: no more points reach the drive
@@ -120,6 +128,16 @@ def test_a_starved_stream_underflows_and_the_axis_is_held(ros, bridge) -> None:
     time.sleep(0.3)
     assert position_of(states[-1]) == pytest.approx(held, abs=1e-4)  # holding, not drifting
     assert here + 0.1 < held < here + 2.0
+
+    # released: the next trajectory starts from where the drive stopped and reaches its goal
+    before_resume = len(emcys)
+    response = ros.call(resume, AxisCommand.Request(joints=[JOINT]))
+    assert response.success, response.message
+    second = follow(held - 0.5, 1.0)
+    result = wait_for(lambda: second.result() if second.done() else None, 5 + BUSY_SLACK, 'second result').result
+    assert result.error_code == FollowJointTrajectory.Result.SUCCESSFUL, result.error_string
+    wait_for(lambda: abs(position_of(states[-1]) - (held - 0.5)) < 1e-3, 3, 'the second goal')
+    assert not [e for e in emcys[before_resume:] if e.error_code in (0x8584, 0x8585)]
 
 
 def test_pvt_replacement_splices_and_an_empty_trajectory_decelerates(ros, bridge) -> None:
