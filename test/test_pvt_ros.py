@@ -15,6 +15,7 @@ from drive_bridge_interfaces.srv import AxisCommand
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from bridgetools import bridge_with_sim
@@ -99,6 +100,8 @@ def test_a_starved_stream_underflows_and_the_axis_is_held_until_resumed(ros, bri
     watcher = ros.node('pvt_action')
     client = ActionClient(watcher, FollowJointTrajectory, f'{NS}/follow_joint_trajectory')
     resume = watcher.create_client(AxisCommand, f'{NS}/resume')
+    refusals: list[String] = []
+    watcher.create_subscription(String, f'{NS}/command_errors', refusals.append, 10)
     assert client.wait_for_server(timeout_sec=10)
     here = position_of(states[-1])
 
@@ -128,6 +131,13 @@ def test_a_starved_stream_underflows_and_the_axis_is_held_until_resumed(ros, bri
     time.sleep(0.3)
     assert position_of(states[-1]) == pytest.approx(held, abs=1e-4)  # holding, not drifting
     assert here + 0.1 < held < here + 2.0
+
+    # held: a trajectory on the topic is refused, saying so (it was accepted, then dropped unheard)
+    publisher.publish(JointTrajectory(joint_names=[JOINT], points=[point(1.0, [held - 0.5])]))
+    refusal = wait_for(lambda: next((m.data for m in refusals if 'held (HALT)' in m.data), None),
+                       2 + BUSY_SLACK, 'the refusal on ~/command_errors')
+    assert f'joint {JOINT} is held' in refusal and 'resume it first' in refusal, refusal
+    assert position_of(states[-1]) == pytest.approx(held, abs=1e-4)
 
     # released: the next trajectory starts from where the drive stopped and reaches its goal
     before_resume = len(emcys)
