@@ -66,3 +66,29 @@ def test_a_velocity_only_trajectory_is_integrated_and_streamed_in_csv() -> None:
         time.sleep(0.3)
         assert abs(axis.snapshot().position - (here + 0.24)) < 0.02
         assert axis.snapshot().state is State.OPERATION_ENABLED
+
+
+def test_a_held_joint_refuses_a_trajectory_until_resumed() -> None:
+    """A joint held with HALT (here ~/halt; also a PVT buffer underflow) would abort a trajectory
+    at its first cycle: it is refused at once, saying why, and taken again once resumed."""
+    from drive_bridge.streaming.errors import TrajectoryError
+    with running(config_from(demo_data())) as (master, sim):
+        axis = master.axes['elbow_joint']
+        axis.enable(timeout=2.0)
+        executor = TrajectoryExecutor(master.axes, cycle_period=master.config.master.cycle_period)
+        master.add_cycle_listener(executor.check)
+        here = axis.snapshot().position
+        move = Trajectory(('elbow_joint',), (TrajectoryPoint(0.5, (here - 0.1,), (0.0,)),))
+        axis.halt(True)
+        try:
+            executor.submit(move)
+            raise AssertionError('a trajectory for a held joint was accepted')
+        except TrajectoryError as exc:
+            assert 'joint elbow_joint is held (HALT)' in str(exc) and 'resume it first' in str(exc), str(exc)
+        assert not executor.active()
+        axis.halt(False)
+        handle = executor.submit(move)
+        assert handle is not None and handle.wait(2.0 + BUSY_SLACK)
+        assert handle.state == 'succeeded', handle.reason
+        time.sleep(0.2)
+        assert abs(axis.snapshot().position - (here - 0.1)) < 1e-3

@@ -102,6 +102,16 @@ class TrajectoryExecutor:
                 raise TrajectoryError(f'{source}: joint {joint} is in mode {snapshot.mode_name}, which takes '
                                       'no trajectory; set a streaming mode first (csp, csv or ip; set_mode)')
 
+    def _check_not_held(self, joints: Iterable[str], source: str) -> None:
+        """A joint held with HALT (~/halt, a buffer underflow or overflow, the position loop's
+        following error) takes no trajectory until resumed: accepted, it would be aborted at the
+        next cycle (check), and on the topic nobody would hear why the joint did not move."""
+        for joint in joints:
+            snapshot = self.axes[joint].snapshot()
+            if snapshot.halted:
+                why = f': {snapshot.message}' if snapshot.message else ''
+                raise TrajectoryError(f'{source}: joint {joint} is held (HALT){why}; resume it first (~/resume)')
+
     def desired(self, joint: str, t: float) -> JointSample | None:
         """The desired state of a joint at time t, None when no trajectory ever ran."""
         splines = self._splines[joint]
@@ -134,6 +144,7 @@ class TrajectoryExecutor:
         held = tuple(j for j in self.axes if j not in trajectory.joints and self._owner[j] is not None)
         first = trajectory.points[0]
         self._check_axes(trajectory.joints, source, (bool(first.positions), bool(first.velocities)))
+        self._check_not_held(trajectory.joints, source)
         self._check_axes(held, source)
         # a PVT stream already committed points to the drive: splice after them
         horizons = [f.horizon for j, f in self._feeders.items() if j in trajectory.joints or j in held]
