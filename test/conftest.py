@@ -9,7 +9,9 @@ from pathlib import Path
 
 # Set before anything imports rclpy: the RMW reads these at rclpy.init().
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+if 'ROS_DOMAIN_ID' not in os.environ:  # a domain no other test session on this machine holds
+    from ddstools import claim_domain
+    os.environ['ROS_DOMAIN_ID'] = str(claim_domain())
 # the bus processes the tests start honour the test hook InjectSetpoint (drive_bridge.busproc.intents)
 os.environ['DRIVE_BRIDGE_TEST_HOOKS'] = '1'
 

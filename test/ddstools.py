@@ -32,3 +32,28 @@ def remove_stale_dds_segments() -> int:
             except OSError:
                 pass
     return removed
+
+
+_claimed: list[object] = []  # the lock files held for the life of this process
+
+
+def claim_domain(first: int = 1, last: int = 100) -> int:
+    """A ROS domain that no other test session on this machine holds: an ``flock`` on
+    ``/tmp/drive_bridge-domain-N.lock``, kept while this process lives (the kernel drops it when
+    the process ends, however it ends). Two suites (two worktrees, or a suite beside a benchmark
+    run the same way) in one domain cross-talk: the other's bridge publishes into our
+    ``/joint_states`` and takes our trajectories. Starts at this process id, as before."""
+    import fcntl
+    count = last - first + 1
+    start = os.getpid() % count
+    for k in range(count):
+        domain = first + (start + k) % count
+        lock = open(f'/tmp/drive_bridge-domain-{domain}.lock', 'a')  # noqa: SIM115 (held until exit)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            lock.close()
+            continue
+        _claimed.append(lock)
+        return domain
+    return first + start  # every domain held: share one, as before
