@@ -48,7 +48,7 @@ def measure(cycles: int = 2000, period: float = 0.002) -> dict[str, float]:
             rpdo1.latched = struct.pack('<Hbh', 0x0F, 8, 0)
             rpdo2.latched = struct.pack('<ii', 10 * (cycles + i), 0)
             start = time.perf_counter()
-            sim._on_sync(0x80, bytearray(), time.time())
+            sim.sync_clock.on_sync(0x80, bytearray(), time.time())
             samples.append(time.perf_counter() - start)
         return {'paced_count': paced[0], 'paced_mean': paced[1], 'paced_median': paced[2], 'paced_max': paced[3],
                 'tight_mean': statistics.fmean(samples), 'tight_median': statistics.median(samples),

@@ -14,8 +14,9 @@ from typing import Any
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.model import NodeConfig
 from drive_bridge.sim.axis402 import Axis402
+from drive_bridge.sim.hooks import EMCY_HEARTBEAT
 from drive_bridge.sim.options import AXIS_OPTIONS, DRIVE_OPTIONS, OptionSpec
-from drive_bridge.sim.slave import EMCY_HEARTBEAT, SimulatedSlave
+from drive_bridge.sim.slave import SimulatedSlave
 
 
 class SimDrive402(SimulatedSlave):
@@ -90,8 +91,8 @@ class SimDrive402(SimulatedSlave):
     def fault_cause_persists(self, axis: Axis402) -> bool:
         """Hook: a fault reset fails while this holds (the master's heartbeat, or its guarding
         when that faults the drive, is still missing)."""
-        guarding = self.options['life_guarding_reaction'] == 'fault' and self._guarding.lost
-        return self._consumer.is_lost() or guarding
+        guarding = self.options['life_guarding_reaction'] == 'fault' and self.guarding.lost
+        return self.heartbeat_monitor.lost or guarding
 
     # ---- fault injection ---------------------------------------------------------------
     def inject_fault(self, code: int, axis: int = 0, manufacturer: bytes = b'', persistent: bool = False) -> None:

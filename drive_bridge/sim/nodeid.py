@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections.abc import MutableMapping
 from typing import Any
 
-from drive_bridge.sim.sdo import SimLocalNode
 from drive_bridge.sim.slave import SimulatedSlave
 
 # the function codes of the predefined connection set (CiA 301 Table 73)
@@ -37,9 +36,9 @@ def change_node_id(slave: SimulatedSlave, new: int, *extra: MutableMapping[int, 
     relative = [k for k, var in slave.store.variables.items() if getattr(var, 'relative', False)]
     for table in (slave.store.values, slave.store.defaults, *extra):
         rebase(table, relative, old, new)
-    network = slave._network
+    network = slave.bus.network
     slave.detach()
     slave.node_id = new
-    slave._local = SimLocalNode(new, slave.node.od, slave._sdo_read, slave._sdo_write, slave._sdo_respond)
+    slave.sdo.local = slave.sdo.new_local_node()
     if network is not None:
         slave.attach(network)

@@ -35,7 +35,7 @@ from drive_bridge.sim.akd.sdo import fit_expedited
 from drive_bridge.sim.ascii_channel import AsciiChannel
 from drive_bridge.sim.axis402 import Axis402
 from drive_bridge.sim.drive402 import SimDrive402
-from drive_bridge.sim.nmt import NmtCommand, NmtState
+from drive_bridge.sim.nmt import NmtCommand
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, OptionSpec
 from drive_bridge.sim.registry import register_simulator
 from drive_bridge.sim.store import key
@@ -69,7 +69,7 @@ class SimAkd(SimDrive402):
         self._sync_lost = False
         super().__init__(node, options=options)
         pdo: AkdPdoEngine = self.pdo  # type: ignore[assignment]
-        pdo.operational = lambda: self._nmt is NmtState.OPERATIONAL
+        pdo.operational = lambda: self.nmt.operational
         if self.options['velocity_pdo_rpm'] and key(obj.VELOCITY_ACTUAL, 0) in self.store:
             pdo.pdo_readers[key(obj.VELOCITY_ACTUAL, 0)] = self._velocity_rpm
         store = self.store
@@ -150,21 +150,21 @@ class SimAkd(SimDrive402):
         self.communication_lost('guarding')  # F129, whatever the generic option says
 
     def fault_cause_persists(self, axis: Axis402) -> bool:
-        return self._consumer.is_lost() or self._guarding.lost
+        return self.heartbeat_monitor.lost or self.guarding.lost
 
     def supervise(self, now: float) -> bool:
         return self._supervise_sync(now)
 
     def _supervise_sync(self, now: float) -> bool:
         """F125 after three missing SYNC periods (FBUS.PARAM04 = 1); True when it was raised."""
-        if not self.store.values.get(key(SYNC_SUPERVISION, 0), 0) or not math.isfinite(self._last_sync):
+        if not self.store.values.get(key(SYNC_SUPERVISION, 0), 0) or not math.isfinite(self.sync_clock.last_sync):
             self._sync_lost = False
             return False
         axis = self.axis_akd
         if axis.state is not State.OPERATION_ENABLED or axis.mode not in (Mode.INTERPOLATED_POSITION,
                                                                            Mode.CYCLIC_SYNC_POSITION):
             return False
-        if now - self._last_sync <= 3 * axis.interpolation_period() + 0.005:
+        if now - self.sync_clock.last_sync <= 3 * axis.interpolation_period() + 0.005:
             self._sync_lost = False
             return False
         if self._sync_lost:

@@ -165,7 +165,7 @@ class SimServostar(SimDrive402):
         return 4 if high else 0
 
     def _terminal_write(self, index: int, value: Any) -> None:
-        self._write(key(index, VALUE), value)
+        self.write_object(key(index, VALUE), value)
 
     # -- save, store, cold start --------------------------------------------------------------------
     def save(self) -> None:
@@ -256,8 +256,8 @@ class SimServostar(SimDrive402):
 
     def stage_changed(self, enabled: bool) -> None:
         """The output stage went on or off: life guarding runs only while it is on."""
-        if enabled and self._guarding.last_request is not None:
-            self._guarding.request(time.monotonic())  # the life time starts now
+        if enabled:
+            self.guarding.rearm(time.monotonic())  # the life time starts now
 
     # -- errors ----------------------------------------------------------------------------------------------
     def error_pending(self) -> bool:
@@ -323,8 +323,7 @@ class SimServostar(SimDrive402):
         self.star_emcy.clear('cat2', keep)
         if not self.motion_blocked():
             axis.release()
-        if self._guarding.last_request is not None:
-            self._guarding.request(time.monotonic())
+        self.guarding.rearm(time.monotonic())
 
     def reset_fault(self) -> None:
         """Controlword bit 7 with a category 1 error pending: the drive restarts (cold start)."""
