@@ -22,11 +22,10 @@ from test_pvt_ros import (
     JOINT,
     NS,
     bridge as bridge,  # noqa: F401  (the fixture: the bridge streaming to a simulated AKD)
-    point,
+    follow,
     position_of,
     recorders,
 )
-from trajectory_msgs.msg import JointTrajectory
 
 from drive_bridge.cia402.statemachine import State
 from rostools import RosHarness, wait_for
@@ -77,20 +76,12 @@ def test_a_second_master_overflows_the_pvt_buffer_and_the_axis_is_held(ros: RosH
     assert client.wait_for_server(timeout_sec=10)
     drive = bridge.simulation.drive(NODE)
 
-    def follow(target: float, duration: float):
-        goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[JOINT],
-                                                                     points=[point(duration, [target])]))
-        sent = client.send_goal_async(goal)
-        handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal answered')
-        assert handle.accepted
-        return handle.get_result_async()
-
     # points 40 ms apart kept 200 ms ahead: a stalled cycle on a loaded machine cannot starve
     # the stream, and the bridge still leaves room (it queues at most 5 of the 9 places)
     assert all(r.successful for r in bridge.set_parameters([Parameter('pvt_segment', value=0.04),
                                                             Parameter('pvt_lookahead', value=0.2)]))
     here = position_of(states[-1])
-    result_future = follow(here + 2.0, 2.0)
+    result_future = follow(client, here + 2.0, 2.0)
     time.sleep(0.5)  # the stream runs, the buffer is kept fed (never full)
     assert not [e for e in emcys if e.error_code in (0x8584, 0x8585)]  # fed, never full
     with SecondMaster(bridge.master.config.bus.channel, count=15):
@@ -121,7 +112,7 @@ def test_a_second_master_overflows_the_pvt_buffer_and_the_axis_is_held(ros: RosH
     wait_for(lambda: drive.value(0x60C4, 2) == 9, 2, 'the drive buffer cleared')
     time.sleep(0.5)
     assert position_of(states[-1]) == pytest.approx(held, abs=1e-3), 'the drive replayed stale points'
-    second = follow(held - 0.5, 1.0)
+    second = follow(client, held - 0.5, 1.0)
     result = wait_for(lambda: second.result() if second.done() else None, 5, 'second result')
     assert result.result.error_code == FollowJointTrajectory.Result.SUCCESSFUL, result.result.error_string
     wait_for(lambda: abs(position_of(states[-1]) - (held - 0.5)) < 1e-3, 3, 'the second goal')

@@ -95,6 +95,17 @@ def test_pvt_follows_the_path_and_never_overflows_the_buffer(ros, bridge) -> Non
     assert not [e for e in emcys if e.error_code in (0x8584, 0x8585)]  # no overflow, no underflow
 
 
+def follow(client: ActionClient, target: float, duration: float):
+    """A FollowJointTrajectory goal moving JOINT to ``target`` in ``duration`` s, accepted: its
+    result future."""
+    goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[JOINT],
+                                                                 points=[point(duration, [target])]))
+    sent = client.send_goal_async(goal)
+    handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal answered')
+    assert handle.accepted
+    return handle.get_result_async()
+
+
 def test_a_starved_stream_underflows_and_the_axis_is_held_until_resumed(ros, bridge) -> None:
     states, emcys, publisher = recorders(ros)
     watcher = ros.node('pvt_action')
@@ -105,15 +116,7 @@ def test_a_starved_stream_underflows_and_the_axis_is_held_until_resumed(ros, bri
     assert client.wait_for_server(timeout_sec=10)
     here = position_of(states[-1])
 
-    def follow(target: float, duration: float):
-        goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=[JOINT],
-                                                                     points=[point(duration, [target])]))
-        sent = client.send_goal_async(goal)
-        handle = wait_for(lambda: sent.result() if sent.done() else None, 10, 'goal answered')
-        assert handle.accepted
-        return handle.get_result_async()
-
-    result_future = follow(here + 2.0, 2.0)
+    result_future = follow(client, here + 2.0, 2.0)
     time.sleep(0.6)
     drive = bridge.simulation.drive(1)
     drive.drop_rpdos(True)  # the stream starves: no more points reach the drive
@@ -143,7 +146,7 @@ def test_a_starved_stream_underflows_and_the_axis_is_held_until_resumed(ros, bri
     before_resume = len(emcys)
     response = ros.call(resume, AxisCommand.Request(joints=[JOINT]))
     assert response.success, response.message
-    second = follow(held - 0.5, 1.0)
+    second = follow(client, held - 0.5, 1.0)
     result = wait_for(lambda: second.result() if second.done() else None, 5 + BUSY_SLACK, 'second result').result
     assert result.error_code == FollowJointTrajectory.Result.SUCCESSFUL, result.error_string
     wait_for(lambda: abs(position_of(states[-1]) - (held - 0.5)) < 1e-3, 3, 'the second goal')
