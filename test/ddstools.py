@@ -2,14 +2,17 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 SHM = Path('/dev/shm')
+FRESH = 60.0  # s: a younger file may be one a live process (another suite's) is still creating
 
 
 def remove_stale_dds_segments() -> int:
     """Delete Fast DDS shared-memory files (``/dev/shm/fastrtps_*``, ``sem.fastrtps_*``) that no
-    live process maps or holds open: what killed processes left. Returns how many were removed."""
+    live process maps or holds open, and that are older than ``FRESH`` (a suite beside this one
+    may be creating one right now): what killed processes left. Returns how many were removed."""
     if not SHM.is_dir():
         return 0
     mapped: set[str] = set()  # mapped or held open (a lock file) by some live process
@@ -24,9 +27,12 @@ def remove_stale_dds_segments() -> int:
         except OSError:  # the process ended meanwhile, or is not ours
             continue
     removed = 0
+    now = time.time()
     for path in SHM.iterdir():
         if path.name.startswith(('fastrtps_', 'sem.fastrtps_')) and str(path) not in mapped:
             try:
+                if now - path.stat().st_mtime < FRESH:  # maybe being created by a live process (another suite)
+                    continue
                 path.unlink()
                 removed += 1
             except OSError:

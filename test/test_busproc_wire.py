@@ -5,6 +5,7 @@ drop count crossing in it from a bus server on a running Master."""
 from __future__ import annotations
 
 import concurrent.futures
+import dataclasses
 import datetime
 import pickle
 
@@ -13,11 +14,22 @@ import pytest
 
 from bustools import config_from, demo_data
 from drive_bridge.busproc import cyclic, outbox, wire
+from drive_bridge.busproc.client import BusClient
 from drive_bridge.busproc.errors import BoundaryError
 from drive_bridge.busproc.executor import ExecutorProxy
 from drive_bridge.busproc.intents import CHUNK_BYTES, CHUNK_POINTS, Request, Stop, TrajectoryChunk, chunk_points
-from drive_bridge.busproc.reports import FRAMES_PER_BATCH, CommandRefused, Frames, Reply, unpack_frames
+from drive_bridge.busproc.reports import (
+    FRAMES_PER_BATCH,
+    AxisStates,
+    CommandRefused,
+    Frames,
+    Reply,
+    StopOutcome,
+    unpack_frames,
+)
 from drive_bridge.busproc.server import BusServer
+from drive_bridge.cia402.statemachine import State
+from drive_bridge.config.source import ConfigSource
 from drive_bridge.master.master import Master
 from drive_bridge.sim import SimulatedBus
 from drive_bridge.streaming.executor import TrajectoryExecutor
@@ -178,3 +190,43 @@ def chunk(joints: int, points: int) -> TrajectoryChunk:
                         tuple(0.3456789 * j + i for j in range(joints)),
                         tuple(-0.7654321 * j - i for j in range(joints)))
         for i in range(points)), 1.7e9, 'joint_trajectory')
+
+
+def test_a_report_taken_before_a_stop_answer_never_undoes_it() -> None:
+    """Reports (request lane) and stop answers (stop lane) are read by different threads: a
+    joint's state reported before a quick stop, read after the stop's answer, must not show
+    the joint enabled again (seen once on a busy machine: ``~/quick_stop`` answered, and the
+    node still said OPERATION_ENABLED)."""
+    config = config_from(demo_data())
+    client = BusClient(config, ConfigSource(text='unused'))
+    (stop_node, stop_bus), (request_node, request_bus), (state_node, state_bus) = (wire.lane_pair() for _ in range(3))
+    client.stop_lane, client.request_lane, client.state_lane = (
+        wire.Lane(end) for end in (stop_node, request_node, state_node))
+    bus_stops, bus_requests = wire.Lane(stop_bus), wire.Lane(request_bus)
+    joint = 'base_joint'
+    proxy = client.axes[joint]
+
+    def states(state: State, taken: float) -> AxisStates:
+        snapshot = dataclasses.replace(proxy.snapshot(), state=state, available=True)
+        return AxisStates((snapshot,), ('position',), (None,), taken)
+
+    try:
+        client.start_readers()
+        answer = client.stop(Stop((joint,), 'quick_stop'))
+        request = bus_stops.recv()
+        assert isinstance(request, Request)
+        bus_stops.send(Reply(request.id, StopOutcome(((joint, ''),), states(State.QUICK_STOP_ACTIVE, 2.0))))
+        answer.result(10)
+        assert proxy.state is State.QUICK_STOP_ACTIVE
+        bus_requests.send(states(State.OPERATION_ENABLED, 1.0))  # taken before the stop, read after its answer
+        bus_requests.send(CommandRefused('~/commands', 'a marker'))  # read after it: the report was handled
+        refused: list[str] = []
+        client.add_refusal_listener(lambda topic, reason: refused.append(reason))
+        wait_for(lambda: refused, 10, 'the marker after the old report')
+        assert proxy.state is State.QUICK_STOP_ACTIVE, 'an older report undid the quick stop'
+        bus_requests.send(states(State.SWITCH_ON_DISABLED, 3.0))  # a newer one is applied
+        wait_for(lambda: proxy.state is State.SWITCH_ON_DISABLED, 10, 'the newer report applied')
+    finally:
+        for lane in (bus_stops, bus_requests):
+            lane.close()
+        state_bus.close()

@@ -90,11 +90,10 @@ class BusClient(Inbox):
         for end in child_ends:
             end.close()
         self.pid = self.process.pid
-        for target, name in ((self._read_state, 'state'), (self._read_requests, 'requests'),
-                             (self._read_stops, 'stops'), (self._watch_child, 'watch')):
-            thread = threading.Thread(target=target, name=f'drive_bridge-client-{name}', daemon=True)
-            self._threads.append(thread)
-            thread.start()
+        self._threads.extend(self.start_readers())
+        watcher = threading.Thread(target=self._watch_child, name='drive_bridge-client-watch', daemon=True)
+        self._threads.append(watcher)
+        watcher.start()
         frames = bool(self._frame_listeners)
         self.request_lane.send(Start(self.source, self.executor.pvt_segment, self.executor.pvt_lookahead, frames))
         try:

@@ -55,6 +55,8 @@ class Inbox:
         self.report_drops = 0  # reports its full outbox dropped (events, EMCY, trajectory states, refusals)
         self._pending: dict[int, concurrent.futures.Future[object]] = {}
         self._pending_lock = threading.Lock()
+        self._taken: dict[str, float] = {}  # joint -> when the applied snapshot was taken (bus process)
+        self._taken_lock = threading.Lock()
         self._ready: concurrent.futures.Future[Ready] = concurrent.futures.Future()
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
@@ -108,6 +110,15 @@ class Inbox:
             self.settings(frames=False)
 
     # -- readers ---------------------------------------------------------------------------------------------
+    def start_readers(self) -> list[threading.Thread]:
+        """One daemon thread per lane (cyclic state, request-lane reports, stop answers), started."""
+        threads = [threading.Thread(target=target, name=f'drive_bridge-client-{name}', daemon=True)
+                   for target, name in ((self._read_state, 'state'), (self._read_requests, 'requests'),
+                                        (self._read_stops, 'stops'))]
+        for thread in threads:
+            thread.start()
+        return threads
+
     def _read_state(self) -> None:
         joints = len(self.joints)
         axes = [self.axes[j] for j in self.joints]
@@ -206,9 +217,14 @@ class Inbox:
             self.final = record.final
 
     def _apply_states(self, states: AxisStates) -> None:
-        for snapshot, field, strategy in zip(states.snapshots, states.command_fields, states.strategies):
-            axis = self.axes.get(snapshot.joint)
-            if axis is not None:
+        """Each joint's snapshot, unless one taken later was applied already (the stop lane's
+        answer may overtake a report still queued on the request lane)."""
+        with self._taken_lock:
+            for snapshot, field, strategy in zip(states.snapshots, states.command_fields, states.strategies):
+                axis = self.axes.get(snapshot.joint)
+                if axis is None or states.taken < self._taken.get(snapshot.joint, float('-inf')):
+                    continue
+                self._taken[snapshot.joint] = states.taken
                 axis.on_snapshot(snapshot, field, strategy)
 
     @staticmethod

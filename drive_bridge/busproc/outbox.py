@@ -143,5 +143,6 @@ def _key(axis: JointDriver) -> tuple[object, ...]:
 
 
 def axis_states(axes: list[JointDriver]) -> AxisStates:
+    taken = time.monotonic()  # before reading: a snapshot taken later is at least as new
     return AxisStates(tuple(a.snapshot() for a in axes), tuple(a.command_field() for a in axes),
-                      tuple(a.stream_strategy() for a in axes))
+                      tuple(a.stream_strategy() for a in axes), taken)

@@ -51,11 +51,15 @@ class Reply:
 class AxisStates:
     """The joints whose state, mode or flags changed (or all, every ``outbox.REFRESH``), with
     what their drivers say of the current mode: the field a direct command carries and how a
-    trajectory is streamed (None: none)."""
+    trajectory is streamed (None: none). ``taken`` is the bus process's monotonic time just
+    before the snapshots were read: reports and stop answers travel on different lanes, read by
+    different threads, so the node applies a joint's snapshot only if none taken later was
+    applied before (an older report never undoes a quick stop's answer)."""
 
     snapshots: tuple[AxisSnapshot, ...]
     command_fields: tuple[str | None, ...]
     strategies: tuple[StreamStrategy | None, ...]
+    taken: float = 0.0
 
 
 @dataclass(frozen=True)
