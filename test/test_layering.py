@@ -320,6 +320,14 @@ def test_drive_family_table_names_every_hook() -> None:
     assert not missing, f'hooks missing from the table in drive_bridge/families/interface.py: {missing}'
 
 
+def test_axis_quirks_table_names_every_hook() -> None:
+    """The hook table of the AxisQuirks module docstring lists every public method."""
+    from drive_bridge.cia402 import quirks
+    hooks = [n for n, v in vars(quirks.AxisQuirks).items() if not n.startswith('_') and inspect.isfunction(v)]
+    missing = [h for h in hooks if f'``{h}``' not in (quirks.__doc__ or '')]
+    assert hooks and not missing, f'hooks missing from the table in drive_bridge/cia402/quirks.py: {missing}'
+
+
 # --- the ros -> sim contract bites ----------------------------------------------------------------
 
 @pytest.mark.parametrize('injected', [

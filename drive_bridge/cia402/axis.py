@@ -9,6 +9,11 @@ handshake, homing start, IP enable, HALT) and writes targets. Intents such as
 :meth:`enable` set what is wanted and wait, with a timeout, for the statusword to
 confirm it. Process data goes through a :class:`NodeIo`, so the same logic serves
 objects mapped in PDOs and objects reached by SDO.
+
+The axis is built from parts: its motion intents (:class:`~drive_bridge.cia402.intents.Intents`),
+the modes it may take (:class:`~drive_bridge.cia402.modesupport.ModeSupport`), its interpolation
+objects, and the :class:`~drive_bridge.cia402.quirks.AxisQuirks` its drive family hands in where
+the drive differs from the profile (no family subclasses it).
 """
 from __future__ import annotations
 
@@ -19,13 +24,15 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent, Severity
-from drive_bridge.cia402 import objects as obj, statemachine as sm
+from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.drive_limits import describe, with_drive_limits
 from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.intents import Intents
+from drive_bridge.cia402.interpolation import InterpolationObjects
 from drive_bridge.cia402.modecontrol import PP_IDLE, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
-from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
+from drive_bridge.cia402.modesupport import ModeSupport
+from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord, axis_keys
 from drive_bridge.cia402.quirks import AxisQuirks
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
@@ -34,16 +41,6 @@ from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
-
-HOLD_COMMAND = {
-    State.READY_TO_SWITCH_ON: sm.CMD_SHUTDOWN,
-    State.SWITCHED_ON: sm.CMD_SWITCH_ON,
-    State.OPERATION_ENABLED: sm.CMD_ENABLE_OPERATION,
-    State.QUICK_STOP_ACTIVE: sm.CMD_QUICK_STOP,
-}
-
-
-
 
 DRIVE_STATE = {
     State.UNKNOWN: DriveState.UNAVAILABLE,
@@ -75,22 +72,8 @@ class Axis(ModeControl):
         self.cycle_period = cycle_period  # s; also the interpolation period written to 0x60C2
         self.joint = config.joint
         slot = config.slot
-        self.key = {name: (obj.for_axis(index, slot), 0) for name, index in (
-            ('controlword', obj.CONTROLWORD), ('statusword', obj.STATUSWORD),
-            ('mode', obj.MODES_OF_OPERATION), ('mode_display', obj.MODES_OF_OPERATION_DISPLAY),
-            ('supported_modes', obj.SUPPORTED_DRIVE_MODES), ('homing_method', obj.HOMING_METHOD),
-            ('home_offset', obj.HOME_OFFSET), ('homing_acceleration', obj.HOMING_ACCELERATION),
-            ('error_code', obj.ERROR_CODE), ('ip_submode', obj.INTERPOLATION_SUB_MODE))}
-        objects = profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot)
-        self.key.update(position=objects.position_actual, velocity=objects.velocity_actual,
-                        torque=objects.effort_actual, target_position=objects.target_position,
-                        target_velocity=objects.target_velocity, target_torque=objects.target_effort)
-        def ip(index: int, sub: int) -> tuple[int, int]:
-            return obj.for_axis(index, slot), sub
-        self.key.update(ip_position=ip(obj.INTERPOLATION_DATA_RECORD, 1),
-                        ip_units=ip(obj.INTERPOLATION_TIME_PERIOD, 1), ip_index=ip(obj.INTERPOLATION_TIME_PERIOD, 2),
-                        ip_free=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 2),
-                        ip_clear=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 6))
+        self.key = axis_keys(slot, profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot))
+        self.interpolation = InterpolationObjects(node, self.key, cycle_period)
         self.pvt: PvtRecord | None = profile.pvt_record(slot) if profile is not None else None
         self.fault_model: FaultModel = profile.fault_model if profile is not None else FaultModel()
         self._cond = threading.Condition()
@@ -123,11 +106,10 @@ class Axis(ModeControl):
         self._configured_limits = config.limits
         self._limits_said = ''
         self._reset_emcy_count = 0
-        self.supported_modes: int | None = None  # 0x6502, read on the first mode change
         # the drive family's list, when 0x6502 under-reports
         if accepted_modes is None and profile is not None:
             accepted_modes = profile.accepted_modes
-        self.accepted_modes = accepted_modes
+        self.modes = ModeSupport(node, self.key['supported_modes'], accepted_modes)
         self.quirks = quirks if quirks is not None else AxisQuirks()
         self.quirks.attach(self)
         node.add_input_listener(self._on_input)
@@ -293,16 +275,16 @@ class Axis(ModeControl):
             self._disable_on_return = False
         if self._fault_reset_phase == 1:
             self._fault_reset_phase = 2
-            return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)  # bit 7 low: the edge comes next
+            return sm.hold_command(state)  # the reset bit low: its edge comes next
         if self._fault_reset_phase == 2:
             if state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
                 self._fault_reset_phase = 0
             else:
                 return 1 << self._reset_bit
         if self._target_state is None:
-            return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)
+            return sm.hold_command(state)
         command = sm.next_command(state, self._target_state)
-        return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE) if command is None else command
+        return sm.hold_command(state) if command is None else command
 
     # -- intents (any thread but the CAN Notifier) -------------------------------------------
     def where(self) -> str:

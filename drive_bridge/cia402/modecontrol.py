@@ -12,23 +12,25 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia402 import bootmodes, objects as obj, statemachine as sm
+from drive_bridge.cia402 import bootmodes, statemachine as sm
+from drive_bridge.cia402.drive_limits import stop_deceleration
 from drive_bridge.cia402.errors import AxisError, SetpointRefused
+from drive_bridge.cia402.homing import write_homing_parameters
 from drive_bridge.cia402.intents import Intents
+from drive_bridge.cia402.interpolation import InterpolationObjects
 from drive_bridge.cia402.modes import (
     CYCLIC_MODES,
     POSITION_MODES,
-    SUPPORT_BITS,
     TORQUE_MODES,
     VELOCITY_MODES,
     Mode,
     mode_name,
 )
+from drive_bridge.cia402.modesupport import ModeSupport
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
 from drive_bridge.cia402.quirks import AxisQuirks
 from drive_bridge.cia402.setpoint_check import SetpointChecks, check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
@@ -37,13 +39,6 @@ from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
 AUTO_LOOP = PositionLoopConfig(gain=10.0)  # 1/s: the loop of an axis put in pv at boot without one
-
-
-def _number(value: int | float | str | bytes) -> int:
-    """An SDO value that must be a number (the EDS types these objects as integers)."""
-    if isinstance(value, (str, bytes)):
-        raise AxisError(f'expected a number, the drive sent {value!r}')
-    return int(value)
 
 
 class ModeControl(SetpointChecks):
@@ -58,11 +53,11 @@ class ModeControl(SetpointChecks):
     profile: Cia402Profile | None
     pvt: PvtRecord | None
     key: dict[str, tuple[int, int]]
-    accepted_modes: frozenset[int] | None
-    supported_modes: int | None
+    modes: ModeSupport
     _cond: threading.Condition
     intents: Intents
     quirks: AxisQuirks
+    interpolation: InterpolationObjects
     _halt: bool
     _mode: int
     _pp_phase: int
@@ -219,39 +214,21 @@ class ModeControl(SetpointChecks):
         self._last_command = time.monotonic()
         self._stale = False
 
-    def _check_supported(self, mode: int) -> None:
-        if self.accepted_modes is not None:
-            if mode not in self.accepted_modes:
-                names = ', '.join(mode_name(m) for m in sorted(self.accepted_modes))
-                raise AxisError(f'{self.where()}: mode {mode_name(mode)} is not accepted by this drive family '
-                                f'(it takes {names})')
-            return
-        if self.supported_modes is None and self.node.has_object(*self.key['supported_modes']):
-            self.supported_modes = _number(self.node.sdo_read(*self.key['supported_modes']))
-        if self.supported_modes is None or mode < 0 or Mode(mode) not in SUPPORT_BITS:
-            return
-        if not self.supported_modes >> SUPPORT_BITS[Mode(mode)] & 1:
-            names = ', '.join(mode_name(m) for m, bit in SUPPORT_BITS.items() if self.supported_modes >> bit & 1)
-            raise AxisError(f'{self.where()}: mode {mode_name(mode)} is not supported by the drive '
-                            f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
-
     def _settle_mode(self) -> str:
         """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
         configured one, or the best the drive can stream when the config names none); returns
         the start-up line saying which and why ('' when the family decides the modes)."""
         auto = self.config.auto_mode
-        if auto is None and self.accepted_modes is not None:
+        if auto is None and self.modes.accepted is not None:
             return ''  # the family knows the drive's modes better than its 0x6502
-        supported, inferred = None, False
-        if self.node.has_object(*self.key['supported_modes']):
-            supported = _number(self.node.sdo_read(*self.key['supported_modes']))
-        elif auto is not None and auto.inferred_support is not None:
+        supported, inferred = self.modes.read(), False
+        if supported is None and auto is not None and auto.inferred_support is not None:
             supported, inferred = auto.inferred_support, True
         chosen = bootmodes.pick(self.config.mode, auto, supported, inferred)
         if auto is not None and chosen.mode in (Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION):
-            self._write_interpolation_period(chosen.mode == Mode.INTERPOLATED_POSITION)
+            self.interpolation.write_period(chosen.mode == Mode.INTERPOLATED_POSITION, self.config.ip_submode)
         with self._cond:
-            self.supported_modes = None if inferred else supported
+            self.modes.supported = None if inferred else supported
             self._mode_problem = chosen.problem
             if auto is not None and not chosen.problem and chosen.mode != self._mode:
                 looped = chosen.mode in VELOCITY_MODES
@@ -270,11 +247,11 @@ class ModeControl(SetpointChecks):
         """Write 0x6060 and wait until 0x6061 confirms it."""
         self.require_available()
         code = self.quirks.parse_mode(mode)
-        self._check_supported(code)
+        self.modes.check(code, self.where())
         if not self.quirks.before_mode_change(code):
             return
         if code == Mode.INTERPOLATED_POSITION:
-            self._prepare_interpolation()
+            self.interpolation.prepare(self.config.ip_submode)
         previous = self._mode
         self._request_mode(code)
         wait = timeout if timeout is not None else self.timeouts.mode_switch
@@ -307,63 +284,22 @@ class ModeControl(SetpointChecks):
             return f'the previous mode {mode_name(previous)} was not confirmed either: axis held (HALT)'
         return f'the previous mode {mode_name(previous)} is restored'
 
-    def _write_interpolation_period(self, interpolated: bool) -> None:
-        """The SYNC period into 0x60C2 (CSP and IP interpolate over it), and for IP the
-        sub-mode and a cleared buffer; objects the drive keeps fixed are left as they are."""
-        try:
-            if interpolated:
-                self._prepare_interpolation()
-            else:
-                for name, value in self._period_writes():
-                    if self.node.has_object(*self.key[name]):
-                        self.node.sdo_write(*self.key[name], value)
-        except DriveBridgeError:
-            pass  # read-only on this drive (its EDS makes it const): the drive's own period
-
-    def _period_writes(self) -> list[tuple[str, int]]:
-        period_ms = self.cycle_period * 1000.0
-        if abs(period_ms - round(period_ms)) < 1e-6 and 1 <= round(period_ms) <= 255:
-            return [('ip_units', round(period_ms)), ('ip_index', -3)]
-        return [('ip_units', round(period_ms * 10)), ('ip_index', -4)]  # 100 us units
-
-    def _prepare_interpolation(self) -> None:
-        """Before entering IP: sub-mode (0x60C0), period = the SYNC period (0x60C2, both
-        sub-indices, in ms: the only unit many drives take), and a cleared buffer (0x60C4:6)."""
-        writes = [('ip_submode', self.config.ip_submode), *self._period_writes(), ('ip_clear', 0), ('ip_clear', 1)]
-        for name, value in writes:
-            if self.node.has_object(*self.key[name]):
-                self.node.sdo_write(*self.key[name], value)
-
     def _clear_unfed_buffer(self) -> None:
         """Clear the drive's interpolation buffer (0x60C4:6 = 0, 1) if the axis is in IP and
         no stream feeds it: nothing the bridge still wants is queued there."""
         with self._cond:
             intents = self.intents
             unfed = self._mode == Mode.INTERPOLATED_POSITION and intents.feeder is None and intents.source is None
-        if unfed and self.node.has_object(*self.key['ip_clear']):
-            for value in (0, 1):
-                self.node.sdo_write(*self.key['ip_clear'], value)
+        if unfed:
+            self.interpolation.clear_buffer()
 
     def stop_deceleration(self) -> float:
-        """Deceleration (SI, > 0) for a controlled stop: the joint's configured max_acceleration,
-        else the drive's profile deceleration 0x6084 (read once; within the drive's own maximum),
-        else that maximum, else 1 unit/s^2."""
+        """Deceleration (SI, > 0) for a controlled stop, derived once: the family's (its quirks),
+        else the configured max_acceleration, else the drive's profile deceleration 0x6084."""
         if self._stop_deceleration is None:
             self._stop_deceleration = self.quirks.stop_deceleration()
         if self._stop_deceleration is None:
-            limits = self.config.limits
-            # the configured limit; one read from the drive's maximum (0x60C5) only caps its profile's
-            configured = limits.sources.get('max_acceleration', 'config') == 'config'
-            value = limits.max_acceleration if configured else None
-            key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
-            if value is None and self.node.has_object(*key):
-                try:
-                    value = abs(_number(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)
-                except Exception:
-                    value = None
-            if value and limits.max_acceleration:
-                value = min(value, limits.max_acceleration)
-            self._stop_deceleration = value if value else (limits.max_acceleration or 1.0)
+            self._stop_deceleration = stop_deceleration(self.node, self.config)
         return self._stop_deceleration
 
     def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
@@ -497,7 +433,7 @@ class ModeControl(SetpointChecks):
         if self.state is not State.OPERATION_ENABLED:
             raise AxisError(f'{self.where()}: enable the axis before homing (state {self.state.label})')
         previous = self._mode
-        self._write_homing_parameters()
+        write_homing_parameters(self.node, self.config)
         self.set_mode(Mode.HOMING)
         wait = timeout if timeout is not None else self.timeouts.homing
         with self._cond:
@@ -518,20 +454,6 @@ class ModeControl(SetpointChecks):
                 self._homing = False
         if previous != Mode.HOMING:
             self.set_mode(previous)
-
-    def _write_homing_parameters(self) -> None:
-        """Homing method, speeds, acceleration and offset from the config, where given (SDO)."""
-        homing, scaling, slot = self.config.homing, self.config.scaling, self.config.slot
-        velocity = (lambda si: abs(scaling.velocity_to_device(si)))
-        writes = ((obj.HOMING_METHOD, 0, homing.method, int),
-                  (obj.HOMING_SPEEDS, 1, homing.speed_search, velocity),
-                  (obj.HOMING_SPEEDS, 2, homing.speed_zero, velocity),
-                  (obj.HOMING_ACCELERATION, 0, homing.acceleration, velocity),
-                  (obj.HOME_OFFSET, 0, homing.offset,
-                   lambda si: round(si / scaling.position_factor)))
-        for index, subindex, value, convert in writes:
-            if value is not None:
-                self.node.sdo_write(obj.for_axis(index, slot), subindex, convert(value))
 
     def wait_target_reached(self, timeout: float) -> None:
         """Wait for statusword bit 10 received after the PP set-point handshake completed."""

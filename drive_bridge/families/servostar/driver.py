@@ -33,7 +33,6 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 from drive_bridge.cia402 import statemachine as sm
-from drive_bridge.cia402.axis import HOLD_COMMAND
 from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.modes import mode_name, parse_mode
 from drive_bridge.cia402.quirks import AxisPort, AxisQuirks, Output
@@ -141,7 +140,7 @@ class ServostarQuirks(AxisQuirks):
             return None
         if self._fault_categories() - {2}:  # the drive switched its output stage off
             return sm.CMD_DISABLE_VOLTAGE
-        return HOLD_COMMAND.get(self._device_state, sm.CMD_DISABLE_VOLTAGE)  # category 2: it brakes, stage on
+        return sm.hold_command(self._device_state)  # category 2: it brakes, its stage on
 
     def _fault_categories(self) -> set[int]:
         categories = set(self._pending_emcy_faults().values())
