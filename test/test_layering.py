@@ -256,24 +256,13 @@ def test_index_detector_misses(line: str) -> None:
 
 # Where a family extends the core (docs/families.md): these classes, and any error class.
 EXTENSION_POINTS = frozenset({'drive_bridge.families.interface.DriveFamily',
-                              'drive_bridge.families.parameters.ParameterAccess'})
-# Today's exceptions: the SERVOSTAR and S120 drivers subclass the CiA 402 Axis and reach into
-# its private members, an extension interface nobody wrote down. Both lists must shrink to zero
-# with issue 23's axis from parts (an intents record, mode control as a component, AxisQuirks
-# handed in by the family): remove what is no longer used (the test says so), never add.
-AXIS_SUBCLASSES = {
-    'drive_bridge.families.servostar.driver.ServostarAxis': 'drive_bridge.cia402.axis.Axis',
-    'drive_bridge.families.s120.driver.S120Axis': 'drive_bridge.cia402.axis.Axis',
-}
-CORE_PRIVATES_USED = {
-    'drive_bridge.families.servostar.driver': frozenset({
-        '_apply_setpoint', '_check_limits', '_check_supported', '_cond', '_cycle_targets', '_device_command',
-        '_fault_reset_phase', '_fault_text', '_halt', '_message', '_mode', '_require_available',
-        '_reset_emcy_count', '_source', '_state_of', '_stop_deceleration', '_target_state', '_targets', '_value',
-        '_wait', '_way_out', '_where', '_write'}),
-    'drive_bridge.families.s120.driver': frozenset({
-        '_cond', '_mode', '_require_available', '_stop_deceleration', '_where', '_write'}),
-}
+                              'drive_bridge.families.parameters.ParameterAccess',
+                              'drive_bridge.cia402.quirks.AxisQuirks'})
+# Exceptions: none since issue 23 (the SERVOSTAR and S120 hand the CiA 402 Axis their AxisQuirks
+# instead of subclassing it). Both must stay empty: a family that needs more of the core asks for
+# a hook or a part; remove what is no longer used (the test says so), never add.
+AXIS_SUBCLASSES: dict[str, str] = {}
+CORE_PRIVATES_USED: dict[str, frozenset[str]] = {}
 
 
 def test_families_subclass_only_extension_points() -> None:
@@ -312,14 +301,15 @@ def test_private_use_finders() -> None:
             def _write(self, key, value): ...  # an override
             def run(self, other):
                 self._mode = 3
-                return other._where(), self._own, super()._halt()
+                return other._device_command(), self._own, super()._halt()
 
         def peek(axis):
             return axis._cond, axis._not_a_core_name
     '''))
     node = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef))
-    assert private_uses(node, core_privates(type('Quirky', (Axis,), {}))) == {'_write', '_mode', '_where', '_halt'}
-    assert foreign_uses(tree, any_core_privates()) == {'_where', '_cond'}
+    assert private_uses(node, core_privates(type('Quirky', (Axis,), {}))) == {'_write', '_mode', '_device_command',
+                                                                               '_halt'}
+    assert foreign_uses(tree, any_core_privates()) == {'_device_command', '_cond'}
 
 
 def test_drive_family_table_names_every_hook() -> None:
@@ -328,6 +318,14 @@ def test_drive_family_table_names_every_hook() -> None:
     hooks = [n for n, v in vars(interface.DriveFamily).items() if not n.startswith('_') and inspect.isfunction(v)]
     missing = [h for h in hooks if f'``{h}``' not in (interface.__doc__ or '')]
     assert not missing, f'hooks missing from the table in drive_bridge/families/interface.py: {missing}'
+
+
+def test_axis_quirks_table_names_every_hook() -> None:
+    """The hook table of the AxisQuirks module docstring lists every public method."""
+    from drive_bridge.cia402 import quirks
+    hooks = [n for n, v in vars(quirks.AxisQuirks).items() if not n.startswith('_') and inspect.isfunction(v)]
+    missing = [h for h in hooks if f'``{h}``' not in (quirks.__doc__ or '')]
+    assert hooks and not missing, f'hooks missing from the table in drive_bridge/cia402/quirks.py: {missing}'
 
 
 # --- the ros -> sim contract bites ----------------------------------------------------------------

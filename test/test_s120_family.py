@@ -27,12 +27,13 @@ import yaml
 from akdtools import Sniffer
 from bustools import config_from, eventually, running, unique_channel
 from drive_bridge.cia301.emcy import Severity
+from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import ConfigError
 from drive_bridge.families import Liveness, get_family
 from drive_bridge.families.errors import ParameterError
-from drive_bridge.families.s120 import S120Axis, SinamicsS120, boot as s120_boot, emcy as s120_emcy, pdos as s120_pdos
+from drive_bridge.families.s120 import S120Quirks, SinamicsS120, boot as s120_boot, emcy as s120_emcy, pdos as s120_pdos
 from drive_bridge.families.s120.errors import S120BootError
 from drive_bridge.families.s120.parameters import parse_name
 from drive_bridge.master.master import Master
@@ -97,9 +98,9 @@ def sdo_requests(sniffer: Sniffer, node: int = ARM, after: int = 0) -> list[tupl
     return found
 
 
-def enabled(master: Master, joint: str) -> S120Axis:
+def enabled(master: Master, joint: str) -> Axis:
     axis = master.axes[joint]
-    assert isinstance(axis, S120Axis)
+    assert isinstance(axis, Axis) and isinstance(axis.quirks, S120Quirks)
     axis.enable(timeout=3.0)
     assert axis.snapshot().state is State.OPERATION_ENABLED
     return axis
@@ -399,13 +400,14 @@ def test_units_come_from_the_drive_object() -> None:
                    arm={'encoder_pulses': 1024, 'fine_resolution': 12, 'rated_torque': [4.0, 4.0]})
     with bridge(data) as (master, sim, _sniffer):
         wrist, shoulder = master.axes['wrist_joint'], master.axes['shoulder_joint']
-        assert isinstance(wrist, S120Axis) and isinstance(shoulder, S120Axis)
-        assert wrist.units is not None and not wrist.units.has_encoder
+        assert isinstance(wrist, Axis) and isinstance(shoulder, Axis)
+        assert isinstance(wrist.quirks, S120Quirks) and isinstance(shoulder.quirks, S120Quirks)
+        assert wrist.quirks.units is not None and not wrist.quirks.units.has_encoder
         assert wrist.config.scaling.velocity_factor == pytest.approx(2 * math.pi / 60)  # rad/s per rpm
-        assert shoulder.units is not None and shoulder.units.increments_per_revolution == 1024 << 12
+        assert shoulder.quirks.units is not None and shoulder.quirks.units.increments_per_revolution == 1024 << 12
         assert shoulder.config.scaling.position_factor == pytest.approx(2 * math.pi / (1024 << 12) / 10)
         assert shoulder.config.scaling.effort_factor == pytest.approx(4.0 / 1000 * 10)  # per mille of r0333, gear
-        assert shoulder.drive_object == 3 and wrist.drive_object == 2
+        assert shoulder.quirks.drive_object == 3 and wrist.quirks.drive_object == 2
         enabled(master, 'wrist_joint')
         wrist.command(velocity=math.pi)  # 30 rpm
         eventually(lambda: sim.drive(WRIST).view(2).setpoint == 30, 2.0, '0x60FF = 30 rpm')

@@ -25,12 +25,13 @@ import yaml
 from akdtools import Sniffer
 from bustools import config_from, eventually, unique_channel
 from drive_bridge.cia301.emcy import Severity
+from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.config import ConfigError
 from drive_bridge.families import BootDetection, Liveness, PdoConfiguration, get_family
 from drive_bridge.families.errors import ParameterError
-from drive_bridge.families.servostar import Servostar, ServostarAxis, emcy as ss_emcy, pdos as ss_pdos
+from drive_bridge.families.servostar import Servostar, ServostarQuirks, emcy as ss_emcy, pdos as ss_pdos
 from drive_bridge.families.servostar.parameters import TABLE, lookup
 from drive_bridge.joint import DriveState, Setpoint
 from drive_bridge.master.errors import SdoError
@@ -276,12 +277,18 @@ def downloads(sniffer: Sniffer, node: int = X, after: int = 0) -> list[tuple[int
             for cmd, index, sub, data in sdo_requests(sniffer, node, after) if cmd & 0xE0 == 0x20]
 
 
-def enabled(master: Master, joint: str = 'x_joint') -> ServostarAxis:
+def enabled(master: Master, joint: str = 'x_joint') -> Axis:
     axis = master.axes[joint]
-    assert isinstance(axis, ServostarAxis)
+    quirks_of(axis)
     axis.enable(timeout=3.0)
     assert axis.snapshot().state is State.OPERATION_ENABLED
     return axis
+
+
+def quirks_of(axis: object) -> ServostarQuirks:
+    """The SERVOSTAR quirks of a CiA 402 axis."""
+    assert isinstance(axis, Axis) and isinstance(axis.quirks, ServostarQuirks)
+    return axis.quirks
 
 
 def test_a_drive_powered_on_after_the_bridge_boots_by_its_0_byte_emcy_without_nmt_0x82() -> None:
@@ -392,7 +399,8 @@ def test_a_sync_period_other_than_ptbase_is_refused_at_start_naming_ptbase() -> 
     # PTBASE 16 saved and SYNC 4 ms: fine
     with bridge(example(sync_period=4000), ptbase=PTBASE_4MS) as (master, _sim, _sniffer):
         axis = enabled(master)
-        assert axis.ptbase_period == pytest.approx(0.004) and axis.step_limit() == pytest.approx(209715.2)
+        quirks = quirks_of(axis)
+        assert quirks.ptbase_period == pytest.approx(0.004) and quirks.step_limit() == pytest.approx(209715.2)
 
 
 def test_max_velocity_above_vlim_is_refused_naming_vlim() -> None:
@@ -404,8 +412,9 @@ def test_max_velocity_above_vlim_is_refused_naming_vlim() -> None:
         assert 'max_velocity 400 exceeds' in node.boot_error and 'VLIM (0x3622) = 3000 rpm' in node.boot_error
         master.wait_until_operational(10.0, ['axis_y'])
         y = master.axes['y_joint']
-        assert isinstance(y, ServostarAxis) and y.config.limits.max_velocity == 10.0
-        assert y.units is not None and y.units.vlim_rpm == 3000 and y.units.prbase == 20
+        units = quirks_of(y).units
+        assert isinstance(y, Axis) and y.config.limits.max_velocity == 10.0
+        assert units is not None and units.vlim_rpm == 3000 and units.prbase == 20
 
 
 def _stream(master: Master, joint: str, points: list[TrajectoryPoint],
@@ -452,7 +461,7 @@ def test_a_trajectory_runs_in_mode_0xfa_with_one_absolute_setpoint_per_sync(sync
         target = round((start + 2.0) / RAD_PER_INC / (1 << (20 - prbase)))
         assert setpoints[-1] == pytest.approx(target, abs=2)  # absolute, in 2^PRBASE per revolution
         assert drive.value(0x2022, 4) == setpoints[-1]
-        assert max(abs(b - a) for a, b in zip(setpoints, setpoints[1:])) << (20 - prbase) < axis.step_limit()  # type: ignore[operator]
+        assert max(abs(b - a) for a, b in zip(setpoints, setpoints[1:])) << (20 - prbase) < quirks_of(axis).step_limit()  # type: ignore[operator]
         eventually(lambda: abs(axis.feedback()[1] - (start + 2.0)) < 1e-3, 2.0, 'at the target')
         # idle: the stream goes on holding the last setpoint
         time.sleep(0.3)
@@ -463,7 +472,7 @@ def test_a_trajectory_runs_in_mode_0xfa_with_one_absolute_setpoint_per_sync(sync
 def test_a_step_beyond_vlim_times_the_period_is_refused_before_it_is_sent() -> None:
     with bridge(example()) as (master, sim, sniffer):
         axis = enabled(master)
-        limit = axis.step_limit()
+        limit = quirks_of(axis).step_limit()
         assert limit == pytest.approx(3000 / 60 * 0.001 * INC_PER_REV)  # VLIM 3000 rpm x 1 ms
         here = axis.feedback()[1]
         mark = sniffer.mark

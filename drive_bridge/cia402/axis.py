@@ -9,6 +9,11 @@ handshake, homing start, IP enable, HALT) and writes targets. Intents such as
 :meth:`enable` set what is wanted and wait, with a timeout, for the statusword to
 confirm it. Process data goes through a :class:`NodeIo`, so the same logic serves
 objects mapped in PDOs and objects reached by SDO.
+
+The axis is built from parts: its motion intents (:class:`~drive_bridge.cia402.intents.Intents`),
+the modes it may take (:class:`~drive_bridge.cia402.modesupport.ModeSupport`), its interpolation
+objects, and the :class:`~drive_bridge.cia402.quirks.AxisQuirks` its drive family hands in where
+the drive differs from the profile (no family subclasses it).
 """
 from __future__ import annotations
 
@@ -19,29 +24,23 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent, Severity
-from drive_bridge.cia402 import objects as obj, statemachine as sm
+from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.drive_limits import describe, with_drive_limits
 from drive_bridge.cia402.errors import AxisError
+from drive_bridge.cia402.intents import Intents
+from drive_bridge.cia402.interpolation import InterpolationObjects
 from drive_bridge.cia402.modecontrol import PP_IDLE, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
-from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord
+from drive_bridge.cia402.modesupport import ModeSupport
+from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord, axis_keys
+from drive_bridge.cia402.quirks import AxisQuirks
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
-from drive_bridge.joint import AxisSnapshot, BufferFeeder, DriveState, NodeIo, SetpointSource
+from drive_bridge.joint import AxisSnapshot, DriveState, NodeIo
 from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
-
-HOLD_COMMAND = {
-    State.READY_TO_SWITCH_ON: sm.CMD_SHUTDOWN,
-    State.SWITCHED_ON: sm.CMD_SWITCH_ON,
-    State.OPERATION_ENABLED: sm.CMD_ENABLE_OPERATION,
-    State.QUICK_STOP_ACTIVE: sm.CMD_QUICK_STOP,
-}
-
-
-
 
 DRIVE_STATE = {
     State.UNKNOWN: DriveState.UNAVAILABLE,
@@ -64,7 +63,8 @@ class Axis(ModeControl):
     """A CiA 402 axis of one node slot, mapped to one joint."""
 
     def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float = 0.004,
-                 accepted_modes: frozenset[int] | None = None, profile: Cia402Profile | None = None) -> None:
+                 accepted_modes: frozenset[int] | None = None, profile: Cia402Profile | None = None,
+                 quirks: AxisQuirks | None = None) -> None:
         self.node = node
         self.profile = profile
         self.config = config
@@ -72,29 +72,17 @@ class Axis(ModeControl):
         self.cycle_period = cycle_period  # s; also the interpolation period written to 0x60C2
         self.joint = config.joint
         slot = config.slot
-        self.key = {name: (obj.for_axis(index, slot), 0) for name, index in (
-            ('controlword', obj.CONTROLWORD), ('statusword', obj.STATUSWORD),
-            ('mode', obj.MODES_OF_OPERATION), ('mode_display', obj.MODES_OF_OPERATION_DISPLAY),
-            ('supported_modes', obj.SUPPORTED_DRIVE_MODES), ('homing_method', obj.HOMING_METHOD),
-            ('home_offset', obj.HOME_OFFSET), ('homing_acceleration', obj.HOMING_ACCELERATION),
-            ('error_code', obj.ERROR_CODE), ('ip_submode', obj.INTERPOLATION_SUB_MODE))}
-        objects = profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot)
-        self.key.update(position=objects.position_actual, velocity=objects.velocity_actual,
-                        torque=objects.effort_actual, target_position=objects.target_position,
-                        target_velocity=objects.target_velocity, target_torque=objects.target_effort)
-        def ip(index: int, sub: int) -> tuple[int, int]:
-            return obj.for_axis(index, slot), sub
-        self.key.update(ip_position=ip(obj.INTERPOLATION_DATA_RECORD, 1),
-                        ip_units=ip(obj.INTERPOLATION_TIME_PERIOD, 1), ip_index=ip(obj.INTERPOLATION_TIME_PERIOD, 2),
-                        ip_free=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 2),
-                        ip_clear=ip(obj.INTERPOLATION_DATA_CONFIGURATION, 6))
+        self.key = axis_keys(slot, profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot))
+        self.interpolation = InterpolationObjects(node, self.key, cycle_period)
         self.pvt: PvtRecord | None = profile.pvt_record(slot) if profile is not None else None
         self.fault_model: FaultModel = profile.fault_model if profile is not None else FaultModel()
         self._cond = threading.Condition()
+        self.intents = Intents()
         self._target_state: State | None = None
         self._stale_hold = False  # the node's inputs are stale (its intents were dropped)
         self._halt = False
-        self._fault_reset_phase = 0  # 0 idle, 1 bit 7 low, 2 bit 7 high
+        self._fault_reset_phase = 0  # 0 idle, 1 reset bit low, 2 reset bit high
+        self._reset_bit = self.fault_model.reset_bit  # the bit of the running fault reset
         self._disable_on_return = False  # after the node was configured again (on_node_reset)
         self._last_state = State.UNKNOWN  # the state seen by the last cycle
         # an axis whose mode is picked at boot (on_booted) requests none until then
@@ -104,13 +92,8 @@ class Axis(ModeControl):
         self._pp_phase = PP_IDLE  # profile position set-point handshake
         self._pp_done = 0.0  # statusword stamp when the last handshake completed
         self._homing = False
-        self._ip_point: int | None = None  # IP linear: this cycle's 0x60C1:1, sent every cycle
-        self._feeder: BufferFeeder | None = None  # IP PVT: pushes points while the buffer has room
         self._stop_deceleration: float | None = None
-        self._targets: dict[str, int] = {}  # device units, by target key name
         self._loop: PositionLoop | None = None
-        self._loop_target: tuple[float, float] | None = None
-        self._source: SetpointSource | None = None
         self._last_command = 0.0  # monotonic time of the last streamed command
         self._stale = False
         self._written: dict[tuple[int, int], int | float] = {}
@@ -123,11 +106,12 @@ class Axis(ModeControl):
         self._configured_limits = config.limits
         self._limits_said = ''
         self._reset_emcy_count = 0
-        self.supported_modes: int | None = None  # 0x6502, read on the first mode change
         # the drive family's list, when 0x6502 under-reports
         if accepted_modes is None and profile is not None:
             accepted_modes = profile.accepted_modes
-        self.accepted_modes = accepted_modes
+        self.modes = ModeSupport(node, self.key['supported_modes'], accepted_modes)
+        self.quirks = quirks if quirks is not None else AxisQuirks()
+        self.quirks.attach(self)
         node.add_input_listener(self._on_input)
 
     # -- bus side ---------------------------------------------------------------------------
@@ -152,7 +136,7 @@ class Axis(ModeControl):
             velocity = last[2]
         self._estimate = (float(position), stamp, velocity)
 
-    def _value(self, name: str) -> int | float | None:
+    def read(self, name: str) -> int | float | None:
         if name == 'velocity' and self.config.estimated_velocity:
             return self._estimate[2] if self._estimate is not None else None
         return self.node.read(*self.key[name])
@@ -160,7 +144,7 @@ class Axis(ModeControl):
     @property
     def ready(self) -> bool:
         """The axis has seen a statusword, so its controlword can be decided safely."""
-        return self._value('statusword') is not None
+        return self.read('statusword') is not None
 
     @property
     def node_id(self) -> int:
@@ -181,15 +165,29 @@ class Axis(ModeControl):
 
     @property
     def state(self) -> State:
-        statusword = self._value('statusword')
-        return State.UNKNOWN if statusword is None else self._state_of(int(statusword))
+        statusword = self.read('statusword')
+        return State.UNKNOWN if statusword is None else self.quirks.state_of(int(statusword))
 
-    def _state_of(self, statusword: int) -> State:
-        """The device state this statusword shows (a family whose drive has no Fault state in
-        the statusword reports its faults here)."""
-        return sm.state_from_statusword(statusword)
+    @property
+    def lock(self) -> threading.Condition:
+        """Held around each cycle and intent; notified on each new statusword or mode."""
+        return self._cond
+
+    def say(self, message: str) -> None:
+        with self._cond:
+            self._message = message
+
+    def update_config(self, config: AxisConfig) -> None:
+        """A configuration with the units the family read at boot (scaling, limits)."""
+        with self._cond:
+            self.config = config
+            self._stop_deceleration = None
 
     def _write(self, name: str, value: int | float) -> None:
+        for output, out_value in self.quirks.outputs(name, value):
+            self._write_object(output, out_value)
+
+    def _write_object(self, name: str, value: int | float) -> None:
         key = self.key[name]
         if self._written.get(key) != value and (key in self._written or self.node.has_object(*key)):
             self._written[key] = value
@@ -197,11 +195,11 @@ class Axis(ModeControl):
 
     def on_cycle(self, now: float) -> None:
         """Decide this cycle's controlword, mode and targets (cycle thread, non-blocking)."""
-        statusword = self._value('statusword')
+        statusword = self.read('statusword')
         if statusword is None:
             return
         statusword = int(statusword)
-        state = self._state_of(statusword)
+        state = self.quirks.state_of(statusword)
         if not self.node.available:  # sent to while its TPDOs are stale: the statusword is frozen
             self._hold_stale()
             return
@@ -213,16 +211,16 @@ class Axis(ModeControl):
             controlword = command | mode_bits | (sm.CW_HALT if self._halt else 0)
             self._controlword = controlword
             mode = self._mode
-            targets = self._cycle_targets(state, now)
+            targets = self.quirks.cycle_targets(state, self._cycle_targets(state, now))
         self._write('mode', mode)
         for name, value in targets.items():
             self._write(name, value)
         self._write('controlword', controlword)
         if state is State.OPERATION_ENABLED and mode == Mode.INTERPOLATED_POSITION:
-            if self._feeder is not None:
-                self._feeder.on_cycle(now, self)
-            elif self._ip_point is not None:  # every cycle, even unchanged: one write is one point
-                self.node.write(*self.key['ip_position'], self._ip_point)
+            if self.intents.feeder is not None:
+                self.intents.feeder.on_cycle(now, self)
+            elif self.intents.ip_point is not None:  # every cycle, even unchanged: one write is one point
+                self.node.write(*self.key['ip_position'], self.intents.ip_point)
 
     def _hold_stale(self) -> None:
         """Inputs stale: the drive's real state is unknown, so only a controlword that cannot
@@ -232,10 +230,7 @@ class Axis(ModeControl):
             if not self._stale_hold:
                 self._stale_hold = True
                 self._target_state = None
-                self._targets.clear()
-                self._source = None
-                self._feeder = None
-                self._ip_point = None
+                self.intents.drop()
                 self._guard.forget()
                 self._message = 'inputs stale: held by quick stop; enable it again to move'
                 self._cond.notify_all()
@@ -260,63 +255,66 @@ class Axis(ModeControl):
             self._target_state = None
             self._disable_on_return = True
             self._fault_reset_phase = 0
-            self._targets.clear()
-            self._source = None
-            self._feeder = None
-            self._ip_point = None
-            self._loop_target = None
+            self.intents.drop()
             self._pp_phase = PP_IDLE
             self._guard.forget()
             self._message = 'node configured again: enable the axis to move it'
+            self.quirks.on_node_reset()
             self._cond.notify_all()
 
     def _device_command(self, state: State) -> int:
+        hold = self.quirks.fault_hold(state)
+        if hold is not None:  # the family's hold of a faulted drive, the reset bit's edge added
+            if self._fault_reset_phase == 1:
+                self._fault_reset_phase = 2
+                return hold
+            return hold | 1 << self._reset_bit if self._fault_reset_phase == 2 else hold
         if self._disable_on_return:
             if state is State.OPERATION_ENABLED and self._target_state is None:
                 return sm.CMD_DISABLE_OPERATION
             self._disable_on_return = False
         if self._fault_reset_phase == 1:
             self._fault_reset_phase = 2
-            return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)  # bit 7 low: the edge comes next
+            return sm.hold_command(state)  # the reset bit low: its edge comes next
         if self._fault_reset_phase == 2:
             if state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
                 self._fault_reset_phase = 0
             else:
-                return 1 << self.fault_model.reset_bit
+                return 1 << self._reset_bit
         if self._target_state is None:
-            return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE)
+            return sm.hold_command(state)
         command = sm.next_command(state, self._target_state)
-        return HOLD_COMMAND.get(state, sm.CMD_DISABLE_VOLTAGE) if command is None else command
+        return sm.hold_command(state) if command is None else command
 
     # -- intents (any thread but the CAN Notifier) -------------------------------------------
-    def _where(self) -> str:
+    def where(self) -> str:
         return f'axis {self.joint!r} (node {self.node.node_id} {self.node.name}, slot {self.config.slot})'
 
-    def _require_available(self) -> None:
+    def require_available(self) -> None:
         if not self.node.available:
-            raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state}); '
+            raise AxisError(f'{self.where()}: node not available (NMT {self.node.nmt_state}); '
                             'wait for it to boot or check its heartbeat')
 
-    def _wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
+    def wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
         deadline = time.monotonic() + timeout
         with self._cond:
             while not done():
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
-                    statusword = self._value('statusword')
+                    statusword = self.read('statusword')
                     sw_text = 'no statusword received' if statusword is None else f'statusword 0x{int(statusword):04X}'
-                    raise AxisError(f'{self._where()}: {what} not reached after {timeout * 1000:.0f} ms '
+                    raise AxisError(f'{self.where()}: {what} not reached after {timeout * 1000:.0f} ms '
                                     f'(state {self.state.label}, {sw_text})')
                 self._cond.wait(min(remaining, 0.05))
 
-    def _fault_text(self) -> str:
+    def fault_text(self) -> str:
         emcy = self.last_emcy()
         return f'; last EMCY 0x{emcy.code:04X} {emcy.text}' if emcy else ''
 
     def _go_to(self, target: State, timeout: float | None) -> None:
-        self._require_available()
+        self.require_available()
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
-            raise AxisError(f'{self._where()}: {self.fault_description()}')
+            raise AxisError(f'{self.where()}: {self.fault_description()}')
         with self._cond:
             self._target_state = target
         wait = timeout if timeout is not None else self.timeouts.state_switch * 4
@@ -324,10 +322,10 @@ class Axis(ModeControl):
         def reached() -> bool:
             state = self.state
             if state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
-                raise AxisError(f'{self._where()}: went to {state.label} while moving to '
-                                f'{target.label}{self._fault_text()}')
+                raise AxisError(f'{self.where()}: went to {state.label} while moving to '
+                                f'{target.label}{self.fault_text()}')
             return state is target or (target is State.QUICK_STOP_ACTIVE and state is State.SWITCH_ON_DISABLED)
-        self._wait(reached, wait, target.label)
+        self.wait(reached, wait, target.label)
 
     def enable(self, timeout: float | None = None) -> None:
         """Walk to OPERATION ENABLED (shutdown, switch on, enable operation)."""
@@ -354,42 +352,48 @@ class Axis(ModeControl):
 
     def quick_stop(self, timeout: float | None = None) -> None:
         """Quick stop: the drive ramps down with 0x6085, then (0x605A 0..4) disables."""
-        self._require_available()
+        self.require_available()
         with self._cond:
-            self._targets.clear()
-            self._source = None
+            self.intents.targets.clear()
+            self.intents.source = None
         self._go_to(State.QUICK_STOP_ACTIVE, timeout)
 
     def halt(self, on: bool = True) -> None:
         """The controlword HALT bit (8): the drive decelerates and stays enabled. Released in
         IP with no stream feeding the drive, its buffer is cleared first: points left queued
         (a stream aborted by a buffer fault) would otherwise run on their own."""
-        self._require_available()
+        self.require_available()
         if not on and self._halt:
             self._clear_unfed_buffer()
         with self._cond:
             self._halt = on
             if on:
-                self._source = None
+                self.intents.source = None
         if not on:
             self._clear_refusal()
 
     def reset_fault(self, timeout: float | None = None) -> None:
-        """Fault reset on the rising edge of bit 7; fails if the fault persists."""
-        self._require_available()
+        """Fault reset the family's way (the rising edge of bit 7); fails if the fault persists."""
+        self.require_available()
         if self.state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
             return
+        self.quirks.reset_fault(timeout)
+
+    def reset_by_edge(self, bit: int, timeout: float | None, done: Callable[[], bool] | None = None,
+                      what: str = 'fault reset (leaving FAULT)',
+                      failed: Callable[[], str] = lambda: 'the cause is still present') -> None:
+        """A rising edge of controlword ``bit``, then a wait until ``done()`` (the state left FAULT)."""
         with self._cond:
             self._target_state = State.SWITCH_ON_DISABLED
+            self._reset_bit = bit
             self._fault_reset_phase = 1
         wait = timeout if timeout is not None else self.timeouts.state_switch
         try:
-            self._wait(lambda: self.state not in (State.FAULT, State.FAULT_REACTION_ACTIVE), wait,
-                       'fault reset (leaving FAULT)')
+            self.wait(done or (lambda: self.state not in (State.FAULT, State.FAULT_REACTION_ACTIVE)), wait, what)
         except AxisError as exc:
             with self._cond:
                 self._fault_reset_phase = 0
-            raise AxisError(f'{exc}; the cause is still present{self._fault_text()}') from None
+            raise AxisError(f'{exc}; {failed()}{self.fault_text()}') from None
         self._reset_emcy_count = len(self.node.emcy_history())
 
     def on_booted(self) -> str:
@@ -400,7 +404,7 @@ class Axis(ModeControl):
             limits = with_drive_limits(self.node, self.config, self._configured_limits)
         except DriveBridgeError as exc:
             limits = self._configured_limits
-            lines.append(f'{self._where()}: drive limits not read ({exc}); the configured ones apply')
+            lines.append(f'{self.where()}: drive limits not read ({exc}); the configured ones apply')
         with self._cond:
             self.config = replace(self.config, limits=limits)
             self._loop = None  # rebuilt with these limits
@@ -414,7 +418,7 @@ class Axis(ModeControl):
     def fault_description(self) -> str:
         """The last EMCY and the drive's error code 0x603F (mapped, else read by SDO), the way out."""
         details = []
-        code = self._value('error_code') if self.node.has_object(*self.key['error_code']) else None
+        code = self.read('error_code') if self.node.has_object(*self.key['error_code']) else None
         if code is None and self.node.has_object(*self.key['error_code']):
             try:
                 code = _sdo_number(self.node.sdo_read(*self.key['error_code']))
@@ -424,7 +428,7 @@ class Axis(ModeControl):
             details.append(f'0x603F error code 0x{int(code):04X}')
         return fault_refusal(self.last_emcy(), details)
 
-    def _way_out(self) -> str:
+    def way_out(self) -> str:
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
             return self.fault_description()
         return 'enable it first (~/enable)'
@@ -441,7 +445,7 @@ class Axis(ModeControl):
     def feedback(self) -> tuple[bool, float, float, float, float]:
         """(available, position, velocity, effort, stamp) in SI: the cheap path for joint states."""
         scaling = self.config.scaling
-        position, velocity, torque = (self._value(k) for k in ('position', 'velocity', 'torque'))
+        position, velocity, torque = (self.read(k) for k in ('position', 'velocity', 'torque'))
         return (self.node.available and position is not None,
                 scaling.position_to_si(position) if position is not None else math.nan,
                 scaling.velocity_to_si(velocity) if velocity is not None else math.nan,
@@ -449,22 +453,24 @@ class Axis(ModeControl):
                 self.node.stamp(*self.key['position']))
 
     def state_key(self) -> tuple[object, ...]:
-        return (self.node.available, self._value('statusword'), self._value('mode_display'), self._controlword,
-                self._stale, self._halt, self._message, self._mode_problem)
+        return (self.node.available, self.read('statusword'), self.read('mode_display'), self._controlword,
+                self._stale, self._halt, self._message, self._mode_problem, self.quirks.fault_pending())
 
     def snapshot(self) -> AxisSnapshot:
-        statusword = self._value('statusword')
+        statusword = self.read('statusword')
         sw = int(statusword) if statusword is not None else 0
         _available, position, velocity, effort, stamp = self.feedback()
-        mode = int(self._value('mode_display') or 0)
+        mode = int(self.read('mode_display') or 0)
+        available = self.node.available and statusword is not None
         return AxisSnapshot(
             joint=self.joint, node_id=self.node.node_id, node_name=self.node.name, slot=self.config.slot,
-            available=self.node.available and statusword is not None, nmt_state=self.node.nmt_state,
+            available=available, nmt_state=self.node.nmt_state,
             drive_state=self.drive_state if statusword is not None else DriveState.UNAVAILABLE,
             state=self.state, statusword=sw, controlword=self._controlword,
             mode=mode, mode_name=mode_name(mode), requested_mode=self._mode,
             position=position, velocity=velocity, effort=effort, stamp=stamp,
-            fault=bool(sw & sm.SW_FAULT), warning=bool(sw & sm.SW_WARNING),
+            fault=bool(sw & sm.SW_FAULT) or (available and self.quirks.fault_pending()),
+            warning=bool(sw & sm.SW_WARNING),
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
             following_error=(bool(sw & sm.SW_OMS_13)
                              and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),

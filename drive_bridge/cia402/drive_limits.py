@@ -81,3 +81,23 @@ def describe(joint: str, limits: AxisLimits) -> str:
         text += ('; no velocity limit (limits.max_velocity not set, the drive reports none in 0x607F/0x6080): '
                  'its trajectories stream with a warning, their speed unchecked')
     return text
+
+
+def stop_deceleration(node: NodeIo, config: AxisConfig) -> float:
+    """Deceleration (SI, > 0) for a controlled stop: the joint's configured max_acceleration,
+    else the drive's profile deceleration 0x6084 (within the drive's own maximum), else that
+    maximum, else 1 unit/s^2."""
+    limits = config.limits
+    # the configured limit; one read from the drive's maximum (0x60C5) only caps its profile's
+    configured = limits.sources.get('max_acceleration', 'config') == 'config'
+    value = limits.max_acceleration if configured else None
+    key = (obj.for_axis(obj.PROFILE_DECELERATION, config.slot), 0)
+    if value is None and node.has_object(*key):
+        try:
+            raw = node.sdo_read(*key)
+            value = None if isinstance(raw, (str, bytes)) else abs(int(raw) * config.scaling.velocity_factor)
+        except Exception:
+            value = None
+    if value and limits.max_acceleration:
+        value = min(value, limits.max_acceleration)
+    return value if value else (limits.max_acceleration or 1.0)

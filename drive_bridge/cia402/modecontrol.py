@@ -12,22 +12,25 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia402 import bootmodes, objects as obj, statemachine as sm
+from drive_bridge.cia402 import bootmodes, statemachine as sm
+from drive_bridge.cia402.drive_limits import stop_deceleration
 from drive_bridge.cia402.errors import AxisError, SetpointRefused
+from drive_bridge.cia402.homing import write_homing_parameters
+from drive_bridge.cia402.intents import Intents
+from drive_bridge.cia402.interpolation import InterpolationObjects
 from drive_bridge.cia402.modes import (
     CYCLIC_MODES,
     POSITION_MODES,
-    SUPPORT_BITS,
     TORQUE_MODES,
     VELOCITY_MODES,
     Mode,
     mode_name,
-    parse_mode,
 )
+from drive_bridge.cia402.modesupport import ModeSupport
 from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
+from drive_bridge.cia402.quirks import AxisQuirks
 from drive_bridge.cia402.setpoint_check import SetpointChecks, check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import BufferFeeder, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
@@ -36,13 +39,6 @@ from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
 AUTO_LOOP = PositionLoopConfig(gain=10.0)  # 1/s: the loop of an axis put in pv at boot without one
-
-
-def _number(value: int | float | str | bytes) -> int:
-    """An SDO value that must be a number (the EDS types these objects as integers)."""
-    if isinstance(value, (str, bytes)):
-        raise AxisError(f'expected a number, the drive sent {value!r}')
-    return int(value)
 
 
 class ModeControl(SetpointChecks):
@@ -57,25 +53,22 @@ class ModeControl(SetpointChecks):
     profile: Cia402Profile | None
     pvt: PvtRecord | None
     key: dict[str, tuple[int, int]]
-    accepted_modes: frozenset[int] | None
-    supported_modes: int | None
+    modes: ModeSupport
     _cond: threading.Condition
+    intents: Intents
+    quirks: AxisQuirks
+    interpolation: InterpolationObjects
     _halt: bool
     _mode: int
     _pp_phase: int
     _pp_done: float
     _homing: bool
-    _ip_point: int | None
-    _feeder: BufferFeeder | None
     _stop_deceleration: float | None
-    _targets: dict[str, int]
-    _source: SetpointSource | None
     _last_command: float
     _stale: bool
     _written: dict[tuple[int, int], int | float]
     _message: str
     _loop: PositionLoop | None  # the bridge's position loop (velocity modes, StreamStrategy.POSITION_LOOP)
-    _loop_target: tuple[float, float] | None  # (desired position, velocity feed-forward), SI
     _mode_problem: str  # why the axis has no usable mode ('' when it has one)
 
     # provided by the state-machine driver
@@ -83,31 +76,31 @@ class ModeControl(SetpointChecks):
     def state(self) -> State:
         raise NotImplementedError
 
-    def _value(self, name: str) -> int | float | None:
+    def read(self, name: str) -> int | float | None:
         raise NotImplementedError
 
-    def _where(self) -> str:
+    def where(self) -> str:
         raise NotImplementedError
 
-    def _require_available(self) -> None:
+    def require_available(self) -> None:
         raise NotImplementedError
 
-    def _wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
+    def wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
         raise NotImplementedError
 
-    def _fault_text(self) -> str:
+    def fault_text(self) -> str:
         raise NotImplementedError
 
     # -- each cycle -------------------------------------------------------------------------
     def _mode_bits(self, state: State, statusword: int) -> int:
         if state is not State.OPERATION_ENABLED:
             return 0
-        mode = int(self._value('mode_display') or 0)
+        mode = int(self.read('mode_display') or 0)
         if mode == Mode.PROFILE_POSITION and self._pp_phase:
             return self._pp_handshake(statusword)
         if mode == Mode.HOMING and self._homing:
             return sm.CW_OMS_4
-        if mode == Mode.INTERPOLATED_POSITION and (self._source is not None or self._feeder is not None):
+        if mode == Mode.INTERPOLATED_POSITION and (self.intents.source is not None or self.intents.feeder is not None):
             return sm.CW_OMS_4  # interpolation enabled while a stream feeds the drive
         return 0
 
@@ -133,150 +126,137 @@ class ModeControl(SetpointChecks):
 
     def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
         mode = self._mode
-        actual = self._value('position')
-        idle = not self._targets and self._source is None and self._loop_target is None
+        actual = self.read('position')
+        idle = not self.intents.targets and self.intents.source is None and self.intents.loop_target is None
         if state is not State.OPERATION_ENABLED or idle:
             # follow the actual position until commanded: enabling never jumps
             hold = {'target_velocity': 0, 'target_torque': 0}
             if actual is not None and mode != Mode.PROFILE_POSITION:
                 hold['target_position'] = int(actual)
             if state is not State.OPERATION_ENABLED:  # commands never survive a drop-out
-                self._targets.clear()
-                self._source = None
-                self._feeder = None
-                self._ip_point = None
-                self._loop_target = None
+                self.intents.drop()
                 self._stale = False
-            written = hold if not self._targets else {**hold, **self._targets}
+            written = hold if not self.intents.targets else {**hold, **self.intents.targets}
             seed_hold(self._guard, self.config, written, now)
             return written
-        if self._source is not None:
-            setpoint = self._source(now)
+        if self.intents.source is not None:
+            setpoint = self.intents.source(now)
             if setpoint is not None:
                 self._apply_setpoint(setpoint)
-        looped = self._loop_target is not None and self._looped()
+        looped = self.intents.loop_target is not None and self._looped()
         stale = self._stale
         if (mode in CYCLIC_MODES or looped) and self._last_command and \
                 time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
             self._stale = True
             self._message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
                              f'{mode_name(mode)}: holding position')
-            self._targets = {'target_velocity': 0, 'target_torque': 0}
-            if looped and self._loop_target is not None:  # the loop holds the last desired position
-                self._loop_target = (self._loop_target[0], 0.0)
+            self.intents.targets = {'target_velocity': 0, 'target_torque': 0}
+            if looped and self.intents.loop_target is not None:  # the loop holds the last desired position
+                self.intents.loop_target = (self.intents.loop_target[0], 0.0)
             elif actual is not None:
-                self._targets['target_position'] = int(actual)
+                self.intents.targets['target_position'] = int(actual)
         if looped and actual is not None:
             self._close_loop(actual)
         if self._stale and not stale:  # the dead-man holds where the drive is: no step to check
-            seed_hold(self._guard, self.config, self._targets, now)
+            seed_hold(self._guard, self.config, self.intents.targets, now)
         else:
-            problem = check_targets(self._guard, self.config, mode, looped, self._targets, self._ip_point, now)
+            intents = self.intents
+            problem = check_targets(self._guard, self.config, mode, looped, intents.targets, intents.ip_point, now)
             if problem is not None:
                 self._refuse_setpoint(problem, actual)
-        return dict(self._targets)
+        return dict(self.intents.targets)
 
     def _close_loop(self, actual: int | float) -> None:
         """One step of the bridge's position loop: 0x60FF from the desired state and the
         measured position; beyond the following-error limit a trajectory stream stops with HALT."""
-        assert self._loop_target is not None
+        assert self.intents.loop_target is not None
         if self._loop is None:
             self._loop = PositionLoop(self.config.position_loop, self.config.limits)
         scaling = self.config.scaling
-        position, velocity = self._loop_target
+        position, velocity = self.intents.loop_target
         out = self._loop.step(position, velocity, scaling.position_to_si(actual), self.cycle_period,
                               abs(scaling.position_factor))
-        if out.exceeded and self._source is not None:  # supervised while a trajectory streams;
+        if out.exceeded and self.intents.source is not None:  # supervised while a trajectory streams;
             self._halt = True                            # a direct command is a step on purpose
-            self._source = None
-            self._loop_target = None
+            self.intents.source = None
+            self.intents.loop_target = None
             self._loop.reset()
             self._message = (f'following error {out.error:.4g} beyond the position loop limit '
                              f'{self.config.position_loop.following_error:.4g}: stream aborted, axis held (HALT)')
-            self._targets['target_velocity'] = 0
+            self.intents.targets['target_velocity'] = 0
             return
-        self._targets['target_velocity'] = scaling.velocity_to_device(out.velocity)
+        self.intents.targets['target_velocity'] = scaling.velocity_to_device(out.velocity)
 
     def _apply_setpoint(self, setpoint: Setpoint) -> None:
+        refusal = self.quirks.setpoint_refusal(setpoint)
+        if refusal:  # never sent: the stream stops, the axis holds its last set-point (HALT)
+            self.intents.source = None
+            self._halt = True
+            self._message = refusal
+            return
         scaling = self.config.scaling
         if setpoint.position is not None and self._looped():
-            if self._loop_target is None and self._loop is not None:
+            if self.intents.loop_target is None and self._loop is not None:
                 self._loop.reset(self._actual_velocity())
                 self._guard.rebase('velocity', self._actual_velocity())
-            self._loop_target = (setpoint.position, setpoint.velocity or 0.0)
+            self.intents.loop_target = (setpoint.position, setpoint.velocity or 0.0)
             self._last_command = time.monotonic()
             self._stale = False
             return
         if setpoint.position is not None and self._mode == Mode.INTERPOLATED_POSITION:
-            self._ip_point = scaling.position_to_device(setpoint.position)
+            self.intents.ip_point = scaling.position_to_device(setpoint.position)
         elif setpoint.position is not None:
-            self._targets['target_position'] = scaling.position_to_device(setpoint.position)
+            self.intents.targets['target_position'] = scaling.position_to_device(setpoint.position)
         if setpoint.velocity is not None:
-            self._targets['target_velocity'] = scaling.velocity_to_device(setpoint.velocity)
+            self.intents.targets['target_velocity'] = scaling.velocity_to_device(setpoint.velocity)
         if setpoint.effort is not None:
-            self._targets['target_torque'] = scaling.effort_to_device(setpoint.effort)
+            self.intents.targets['target_torque'] = scaling.effort_to_device(setpoint.effort)
         self._last_command = time.monotonic()
         self._stale = False
-
-    def _check_supported(self, mode: int) -> None:
-        if self.accepted_modes is not None:
-            if mode not in self.accepted_modes:
-                names = ', '.join(mode_name(m) for m in sorted(self.accepted_modes))
-                raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not accepted by this drive family '
-                                f'(it takes {names})')
-            return
-        if self.supported_modes is None and self.node.has_object(*self.key['supported_modes']):
-            self.supported_modes = _number(self.node.sdo_read(*self.key['supported_modes']))
-        if self.supported_modes is None or mode < 0 or Mode(mode) not in SUPPORT_BITS:
-            return
-        if not self.supported_modes >> SUPPORT_BITS[Mode(mode)] & 1:
-            names = ', '.join(mode_name(m) for m, bit in SUPPORT_BITS.items() if self.supported_modes >> bit & 1)
-            raise AxisError(f'{self._where()}: mode {mode_name(mode)} is not supported by the drive '
-                            f'(0x6502 = 0x{self.supported_modes:08X}: {names})')
 
     def _settle_mode(self) -> str:
         """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
         configured one, or the best the drive can stream when the config names none); returns
         the start-up line saying which and why ('' when the family decides the modes)."""
         auto = self.config.auto_mode
-        if auto is None and self.accepted_modes is not None:
+        if auto is None and self.modes.accepted is not None:
             return ''  # the family knows the drive's modes better than its 0x6502
-        supported, inferred = None, False
-        if self.node.has_object(*self.key['supported_modes']):
-            supported = _number(self.node.sdo_read(*self.key['supported_modes']))
-        elif auto is not None and auto.inferred_support is not None:
+        supported, inferred = self.modes.read(), False
+        if supported is None and auto is not None and auto.inferred_support is not None:
             supported, inferred = auto.inferred_support, True
         chosen = bootmodes.pick(self.config.mode, auto, supported, inferred)
         if auto is not None and chosen.mode in (Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION):
-            self._write_interpolation_period(chosen.mode == Mode.INTERPOLATED_POSITION)
+            self.interpolation.write_period(chosen.mode == Mode.INTERPOLATED_POSITION, self.config.ip_submode)
         with self._cond:
-            self.supported_modes = None if inferred else supported
+            self.modes.supported = None if inferred else supported
             self._mode_problem = chosen.problem
             if auto is not None and not chosen.problem and chosen.mode != self._mode:
                 looped = chosen.mode in VELOCITY_MODES
                 loop = self.config.position_loop if self.config.position_loop.enabled or not looped else AUTO_LOOP
                 self.config = replace(self.config, mode=chosen.mode, position_mode=chosen.mode, position_loop=loop)
                 self._mode = chosen.mode
-                self._targets.clear()
-                self._source = None
-        return f'{self._where()}: {chosen.problem or chosen.note}'
+                self.intents.targets.clear()
+                self.intents.source = None
+        return f'{self.where()}: {chosen.problem or chosen.note}'
 
     def _require_mode(self) -> None:
         if self._mode_problem:
-            raise AxisError(f'{self._where()}: {self._mode_problem}')
+            raise AxisError(f'{self.where()}: {self._mode_problem}')
 
     def set_mode(self, mode: int | str, timeout: float | None = None) -> None:
         """Write 0x6060 and wait until 0x6061 confirms it."""
-        self._require_available()
-        code = parse_mode(mode)
-        self._check_supported(code)
+        self.require_available()
+        code = self.quirks.parse_mode(mode)
+        self.modes.check(code, self.where())
+        if not self.quirks.before_mode_change(code):
+            return
         if code == Mode.INTERPOLATED_POSITION:
-            self._prepare_interpolation()
+            self.interpolation.prepare(self.config.ip_submode)
         previous = self._mode
         self._request_mode(code)
         wait = timeout if timeout is not None else self.timeouts.mode_switch
         try:
-            self._wait(lambda: self._value('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
+            self.wait(lambda: self.read('mode_display') == code, wait, f'mode {mode_name(code)} (0x6061)')
         except AxisError as exc:
             raise AxisError(f'{exc}; {self._restore_mode(previous, code)}') from None
         self._mode_problem = ''  # the drive took it
@@ -284,11 +264,7 @@ class ModeControl(SetpointChecks):
     def _request_mode(self, code: int) -> None:
         with self._cond:
             if code != self._mode:
-                self._targets.clear()
-                self._source = None
-                self._feeder = None
-                self._ip_point = None
-                self._loop_target = None
+                self.intents.drop()
                 self._pp_phase = PP_IDLE
             self._mode = code
 
@@ -297,82 +273,44 @@ class ModeControl(SetpointChecks):
         does not confirm that either, the axis is halted (the mode it runs is unknown)."""
         self._request_mode(previous)
         try:
-            self._wait(lambda: self._value('mode_display') == previous, self.timeouts.mode_switch,
+            self.wait(lambda: self.read('mode_display') == previous, self.timeouts.mode_switch,
                        f'previous mode {mode_name(previous)} (0x6061)')
         except AxisError:
             with self._cond:
                 self._halt = True
                 self._message = (f'mode {mode_name(refused)} not confirmed and the previous mode '
-                                 f'{mode_name(previous)} not either (0x6061 = {self._value("mode_display")}): '
+                                 f'{mode_name(previous)} not either (0x6061 = {self.read("mode_display")}): '
                                  'axis held (HALT)')
             return f'the previous mode {mode_name(previous)} was not confirmed either: axis held (HALT)'
         return f'the previous mode {mode_name(previous)} is restored'
-
-    def _write_interpolation_period(self, interpolated: bool) -> None:
-        """The SYNC period into 0x60C2 (CSP and IP interpolate over it), and for IP the
-        sub-mode and a cleared buffer; objects the drive keeps fixed are left as they are."""
-        try:
-            if interpolated:
-                self._prepare_interpolation()
-            else:
-                for name, value in self._period_writes():
-                    if self.node.has_object(*self.key[name]):
-                        self.node.sdo_write(*self.key[name], value)
-        except DriveBridgeError:
-            pass  # read-only on this drive (its EDS makes it const): the drive's own period
-
-    def _period_writes(self) -> list[tuple[str, int]]:
-        period_ms = self.cycle_period * 1000.0
-        if abs(period_ms - round(period_ms)) < 1e-6 and 1 <= round(period_ms) <= 255:
-            return [('ip_units', round(period_ms)), ('ip_index', -3)]
-        return [('ip_units', round(period_ms * 10)), ('ip_index', -4)]  # 100 us units
-
-    def _prepare_interpolation(self) -> None:
-        """Before entering IP: sub-mode (0x60C0), period = the SYNC period (0x60C2, both
-        sub-indices, in ms: the only unit many drives take), and a cleared buffer (0x60C4:6)."""
-        writes = [('ip_submode', self.config.ip_submode), *self._period_writes(), ('ip_clear', 0), ('ip_clear', 1)]
-        for name, value in writes:
-            if self.node.has_object(*self.key[name]):
-                self.node.sdo_write(*self.key[name], value)
 
     def _clear_unfed_buffer(self) -> None:
         """Clear the drive's interpolation buffer (0x60C4:6 = 0, 1) if the axis is in IP and
         no stream feeds it: nothing the bridge still wants is queued there."""
         with self._cond:
-            unfed = self._mode == Mode.INTERPOLATED_POSITION and self._feeder is None and self._source is None
-        if unfed and self.node.has_object(*self.key['ip_clear']):
-            for value in (0, 1):
-                self.node.sdo_write(*self.key['ip_clear'], value)
+            intents = self.intents
+            unfed = self._mode == Mode.INTERPOLATED_POSITION and intents.feeder is None and intents.source is None
+        if unfed:
+            self.interpolation.clear_buffer()
 
     def stop_deceleration(self) -> float:
-        """Deceleration (SI, > 0) for a controlled stop: the joint's configured max_acceleration,
-        else the drive's profile deceleration 0x6084 (read once; within the drive's own maximum),
-        else that maximum, else 1 unit/s^2."""
+        """Deceleration (SI, > 0) for a controlled stop, derived once: the family's (its quirks),
+        else the configured max_acceleration, else the drive's profile deceleration 0x6084."""
         if self._stop_deceleration is None:
-            limits = self.config.limits
-            # the configured limit; one read from the drive's maximum (0x60C5) only caps its profile's
-            configured = limits.sources.get('max_acceleration', 'config') == 'config'
-            value = limits.max_acceleration if configured else None
-            key = (obj.for_axis(obj.PROFILE_DECELERATION, self.config.slot), 0)
-            if value is None and self.node.has_object(*key):
-                try:
-                    value = abs(_number(self.node.sdo_read(*key)) * self.config.scaling.velocity_factor)
-                except Exception:
-                    value = None
-            if value and limits.max_acceleration:
-                value = min(value, limits.max_acceleration)
-            self._stop_deceleration = value if value else (limits.max_acceleration or 1.0)
+            self._stop_deceleration = self.quirks.stop_deceleration()
+        if self._stop_deceleration is None:
+            self._stop_deceleration = stop_deceleration(self.node, self.config)
         return self._stop_deceleration
 
     def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
         """A stream that pushes interpolation points (PVT) while the drive's buffer has room."""
         with self._cond:
-            self._feeder = feeder
-            self._source = None if feeder is not None else self._source
+            self.intents.feeder = feeder
+            self.intents.source = None if feeder is not None else self.intents.source
 
     def interpolation_free_slots(self) -> int | None:
         """Free places in the drive's interpolation buffer (0x60C4:2), None if unknown."""
-        value = self._value('ip_free')
+        value = self.read('ip_free')
         return None if value is None else int(value)
 
     def pvt_time_unit(self) -> float | None:
@@ -383,7 +321,7 @@ class ModeControl(SetpointChecks):
         """Write one PVT point (device units) into the family's record: velocity, time, then
         position, sent together this cycle; the drive buffers it at the next SYNC."""
         if self.pvt is None:
-            raise AxisError(f'{self._where()}: the drive family has no PVT interpolation')
+            raise AxisError(f'{self.where()}: the drive family has no PVT interpolation')
         if not self._pvt_point_allowed(position, time_units, velocity):
             return
         self.node.write(*self.pvt.velocity, velocity)
@@ -393,16 +331,15 @@ class ModeControl(SetpointChecks):
     def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
         """A CiA 402 axis follows any trajectory its streaming mode takes; a velocity-only
         one only in a velocity mode (its positions are integrated, not measured)."""
+        self.quirks.check_trajectory(has_positions, has_velocities)
         self._require_mode()
         if not has_positions and self.stream_strategy() != StreamStrategy.CYCLIC_VELOCITY:
-            raise AxisError(f'{self._where()}: a trajectory without positions needs a velocity streaming '
+            raise AxisError(f'{self.where()}: a trajectory without positions needs a velocity streaming '
                             f'mode (csv); mode is {mode_name(self._mode)}')
 
     def command_field(self) -> str | None:
         """Which value a direct command of the current mode carries: position, velocity or effort."""
-        mode = self._mode
-        return ('position' if mode in POSITION_MODES else 'velocity' if mode in VELOCITY_MODES
-                else 'effort' if mode in TORQUE_MODES else None)
+        return self.quirks.command_field(self._mode)
 
     def stream_strategy(self) -> StreamStrategy | None:
         """How trajectories are streamed in the requested mode (the family decides); a
@@ -414,7 +351,7 @@ class ModeControl(SetpointChecks):
         return standard_strategy(self._mode, self.config.ip_submode, None)
 
     def _actual_velocity(self) -> float:
-        value = self._value('velocity')
+        value = self.read('velocity')
         return self.config.scaling.velocity_to_si(value) if value is not None else 0.0
 
     def is_stream_fault(self, event: EmcyEvent) -> bool:
@@ -427,27 +364,29 @@ class ModeControl(SetpointChecks):
         """The mode the bridge requests (0x6060)."""
         return self._mode
 
-    def _check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
+    def check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
         problem = limit_problem(self.config.limits, position, velocity, effort)
         if problem:
-            raise AxisError(f'{self._where()}: {problem}')
+            raise AxisError(f'{self.where()}: {problem}')
 
     def check_command(self, position: float | None = None, velocity: float | None = None,
                       effort: float | None = None) -> None:
         """Raise AxisError if this command cannot be applied now (limits, mode, state)."""
+        if self.quirks.check_command(position, velocity, effort):
+            return
         self._require_mode()
-        self._check_limits(position, velocity, effort)
+        self.check_limits(position, velocity, effort)
         mode = self._mode
         if position is not None and mode not in POSITION_MODES and not self._looped():
-            raise AxisError(f'{self._where()}: a position command needs a position mode; mode is {mode_name(mode)}')
+            raise AxisError(f'{self.where()}: a position command needs a position mode; mode is {mode_name(mode)}')
         if velocity is not None and mode not in VELOCITY_MODES and mode != Mode.CYCLIC_SYNC_POSITION:
-            raise AxisError(f'{self._where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
+            raise AxisError(f'{self.where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
         if effort is not None and mode not in TORQUE_MODES and mode not in CYCLIC_MODES:
-            raise AxisError(f'{self._where()}: an effort command needs a torque mode; mode is {mode_name(mode)}')
+            raise AxisError(f'{self.where()}: an effort command needs a torque mode; mode is {mode_name(mode)}')
         if not self.node.available:
-            raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
+            raise AxisError(f'{self.where()}: node not available (NMT {self.node.nmt_state})')
         if self.state is not State.OPERATION_ENABLED:
-            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; {self._way_out()}')
+            raise AxisError(f'{self.where()}: {self.state.label}, not operation enabled; {self.way_out()}')
         try:
             self._check_step(position, velocity)
         except SetpointRefused as exc:
@@ -463,7 +402,7 @@ class ModeControl(SetpointChecks):
         self.check_command(position, velocity, effort)
         mode = self._mode
         with self._cond:
-            self._source = None
+            self.intents.source = None
             self._apply_setpoint(Setpoint(position, velocity if mode in VELOCITY_MODES else None,
                                           effort if mode in TORQUE_MODES else None))
             if mode == Mode.PROFILE_POSITION and position is not None:
@@ -473,64 +412,53 @@ class ModeControl(SetpointChecks):
 
     def commanded_position(self) -> float:
         """SI position the drive is commanded to now (last target written), else the actual."""
+        sent = self.quirks.commanded_position()
+        if sent is not None:
+            return self.config.scaling.position_to_si(sent)
         target = self._written.get(self.key['target_position'])
         if target is None or self.state is not State.OPERATION_ENABLED:
-            target = self._value('position')
+            target = self.read('position')
         return self.config.scaling.position_to_si(target) if target is not None else math.nan
 
     def set_setpoint_source(self, source: SetpointSource | None) -> None:
         """A function sampled each cycle (trajectory streaming); None stops sampling."""
         with self._cond:
-            self._source = source
+            self.intents.source = source
             if source is None:
                 self._last_command = time.monotonic()  # the dead-man then holds if nothing follows
 
     def home(self, timeout: float | None = None) -> None:
         """Run the drive's homing (0x6098 method etc. from the config, else the drive's own)."""
-        self._require_available()
+        self.require_available()
         if self.state is not State.OPERATION_ENABLED:
-            raise AxisError(f'{self._where()}: enable the axis before homing (state {self.state.label})')
+            raise AxisError(f'{self.where()}: enable the axis before homing (state {self.state.label})')
         previous = self._mode
-        self._write_homing_parameters()
+        write_homing_parameters(self.node, self.config)
         self.set_mode(Mode.HOMING)
         wait = timeout if timeout is not None else self.timeouts.homing
         with self._cond:
             self._homing = True
 
         def finished() -> bool:
-            statusword = int(self._value('statusword') or 0)
+            statusword = int(self.read('statusword') or 0)
             if statusword & sm.SW_OMS_13:
-                raise AxisError(f'{self._where()}: the drive reports a homing error (statusword 0x{statusword:04X})')
+                raise AxisError(f'{self.where()}: the drive reports a homing error (statusword 0x{statusword:04X})')
             if self.state is not State.OPERATION_ENABLED:
-                raise AxisError(f'{self._where()}: left operation enabled during homing '
-                                f'({self.state.label}){self._fault_text()}')
+                raise AxisError(f'{self.where()}: left operation enabled during homing '
+                                f'({self.state.label}){self.fault_text()}')
             return bool(statusword & sm.SW_OMS_12 and statusword & sm.SW_TARGET_REACHED)
         try:
-            self._wait(finished, wait, 'homing attained')
+            self.wait(finished, wait, 'homing attained')
         finally:
             with self._cond:
                 self._homing = False
         if previous != Mode.HOMING:
             self.set_mode(previous)
 
-    def _write_homing_parameters(self) -> None:
-        """Homing method, speeds, acceleration and offset from the config, where given (SDO)."""
-        homing, scaling, slot = self.config.homing, self.config.scaling, self.config.slot
-        velocity = (lambda si: abs(scaling.velocity_to_device(si)))
-        writes = ((obj.HOMING_METHOD, 0, homing.method, int),
-                  (obj.HOMING_SPEEDS, 1, homing.speed_search, velocity),
-                  (obj.HOMING_SPEEDS, 2, homing.speed_zero, velocity),
-                  (obj.HOMING_ACCELERATION, 0, homing.acceleration, velocity),
-                  (obj.HOME_OFFSET, 0, homing.offset,
-                   lambda si: round(si / scaling.position_factor)))
-        for index, subindex, value, convert in writes:
-            if value is not None:
-                self.node.sdo_write(obj.for_axis(index, slot), subindex, convert(value))
-
     def wait_target_reached(self, timeout: float) -> None:
         """Wait for statusword bit 10 received after the PP set-point handshake completed."""
         def reached() -> bool:
-            statusword = int(self._value('statusword') or 0)
+            statusword = int(self.read('statusword') or 0)
             return (self._pp_phase == PP_IDLE and bool(statusword & sm.SW_TARGET_REACHED)
                     and self.node.stamp(*self.key['statusword']) > self._pp_done)
-        self._wait(reached, timeout, 'target reached')
+        self.wait(reached, timeout, 'target reached')

@@ -38,6 +38,25 @@ class AxisObjects:
                    at(obj.TARGET_POSITION), at(obj.TARGET_VELOCITY), at(obj.TARGET_TORQUE))
 
 
+def axis_keys(slot: int, objects: AxisObjects) -> dict[str, ObjectKey]:
+    """The objects of one axis slot by the names the axis uses (``objects``: its actual and
+    target values, the family's answer)."""
+    def at(index: int, sub: int = 0) -> ObjectKey:
+        return obj.for_axis(index, slot), sub
+    return {
+        'controlword': at(obj.CONTROLWORD), 'statusword': at(obj.STATUSWORD),
+        'mode': at(obj.MODES_OF_OPERATION), 'mode_display': at(obj.MODES_OF_OPERATION_DISPLAY),
+        'supported_modes': at(obj.SUPPORTED_DRIVE_MODES), 'homing_method': at(obj.HOMING_METHOD),
+        'home_offset': at(obj.HOME_OFFSET), 'homing_acceleration': at(obj.HOMING_ACCELERATION),
+        'error_code': at(obj.ERROR_CODE), 'ip_submode': at(obj.INTERPOLATION_SUB_MODE),
+        'position': objects.position_actual, 'velocity': objects.velocity_actual, 'torque': objects.effort_actual,
+        'target_position': objects.target_position, 'target_velocity': objects.target_velocity,
+        'target_torque': objects.target_effort,
+        'ip_position': at(obj.INTERPOLATION_DATA_RECORD, 1), 'ip_units': at(obj.INTERPOLATION_TIME_PERIOD, 1),
+        'ip_index': at(obj.INTERPOLATION_TIME_PERIOD, 2), 'ip_free': at(obj.INTERPOLATION_DATA_CONFIGURATION, 2),
+        'ip_clear': at(obj.INTERPOLATION_DATA_CONFIGURATION, 6)}
+
+
 @dataclass(frozen=True)
 class PvtRecord:
     """Where one position-velocity-time point goes and in which units. Writes go in the

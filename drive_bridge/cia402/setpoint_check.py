@@ -9,9 +9,10 @@ import threading
 from collections.abc import Mapping
 
 from drive_bridge.cia402.errors import SetpointRefused
+from drive_bridge.cia402.intents import Intents
 from drive_bridge.cia402.modes import CYCLIC_MODES, VELOCITY_MODES, Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.joint import BufferFeeder, NodeIo, SetpointSource
+from drive_bridge.joint import NodeIo
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig
 
@@ -64,23 +65,19 @@ class SetpointChecks:
     config: AxisConfig
     pvt: PvtRecord | None
     _cond: threading.Condition
+    intents: Intents
     _halt: bool
     _mode: int
-    _source: SetpointSource | None
-    _feeder: BufferFeeder | None
-    _ip_point: int | None
-    _loop_target: tuple[float, float] | None
-    _targets: dict[str, int]
     _message: str
     _guard: SetpointGuard  # the last check of every commanded set-point
     _pvt_guard: SetpointGuard  # the same for PVT points, on the points' own time line
     _pvt_clock: float  # s: the sum of the pushed points' times
     _setpoint_refused: str  # why the last set-point was refused ('' since the axis was enabled again)
 
-    def _where(self) -> str:
+    def where(self) -> str:
         raise NotImplementedError
 
-    def _value(self, name: str) -> int | float | None:
+    def read(self, name: str) -> int | float | None:
         raise NotImplementedError
 
     def _looped(self) -> bool:
@@ -89,7 +86,7 @@ class SetpointChecks:
     def _quick_stop_from_cycle(self) -> None:
         raise NotImplementedError
 
-    def _way_out(self) -> str:
+    def way_out(self) -> str:
         raise NotImplementedError
 
     def _refuse_setpoint(self, problem: str, actual: int | float | None) -> None:
@@ -99,13 +96,10 @@ class SetpointChecks:
         last = self._guard.last.get('position')
         scaling = self.config.scaling
         hold = scaling.position_to_device(last[0]) if last is not None else actual
-        self._source = None
-        self._feeder = None
-        self._ip_point = None
-        self._loop_target = None
-        self._targets = {'target_velocity': 0, 'target_torque': 0}
+        self.intents.drop()
+        self.intents.targets = {'target_velocity': 0, 'target_torque': 0}
         if hold is not None:
-            self._targets['target_position'] = int(hold)
+            self.intents.targets['target_position'] = int(hold)
         reaction = self.config.limits.on_violation
         if reaction == 'quick_stop':
             self._quick_stop_from_cycle()
@@ -114,14 +108,14 @@ class SetpointChecks:
         self._setpoint_refused = (f'set-point refused before it was written: {problem}; axis held '
                                   f'({"quick stop" if reaction == "quick_stop" else "HALT"}, limits.on_violation)')
         self._message = self._setpoint_refused
-        self.node.report_setpoint_refused(self.config.joint, f'{self._where()}: {self._setpoint_refused}')
+        self.node.report_setpoint_refused(self.config.joint, f'{self.where()}: {self._setpoint_refused}')
 
     def _check_step(self, position: float | None, velocity: float | None) -> None:
         """A direct command the cycle check would refuse is refused here, before it is applied:
         the axis is held since a refused set-point, or the command is a step larger than one
         cycle allows in a mode the bridge feeds set-point by set-point."""
         if self._setpoint_refused:
-            raise SetpointRefused(f'{self._where()}: held since a set-point was refused ({self._setpoint_refused}); '
+            raise SetpointRefused(f'{self.where()}: held since a set-point was refused ({self._setpoint_refused}); '
                             'resume it (~/resume) or enable it again before commanding it')
         looped = self._looped()
         if looped or not cyclic(self._mode, looped):
@@ -133,7 +127,7 @@ class SetpointChecks:
         elif velocity is not None and self._mode in VELOCITY_MODES:
             problem = self._guard.step_problem(self.config.limits, 'velocity', velocity, abs(scaling.velocity_factor))
         if problem is not None:
-            raise SetpointRefused(f'{self._where()}: {problem}')
+            raise SetpointRefused(f'{self.where()}: {problem}')
 
     def _pvt_point_allowed(self, position: int, time_units: int, velocity: int) -> bool:
         """The cycle check for a PVT point (the drive interpolates between points): its position
@@ -154,6 +148,6 @@ class SetpointChecks:
         if problem is None:
             return True
         with self._cond:
-            self._feeder = None
-            self._refuse_setpoint(f'PVT point: {problem}', self._value('position'))
+            self.intents.feeder = None
+            self._refuse_setpoint(f'PVT point: {problem}', self.read('position'))
         return False

@@ -120,3 +120,17 @@ def next_command(current: State, target: State) -> int | None:
     if target is State.OPERATION_ENABLED:
         return CMD_ENABLE_OPERATION if current is State.SWITCHED_ON else CMD_SWITCH_ON  # 4 / 3
     raise ValueError(f'unsupported target state {target!r}')
+
+
+HOLD_COMMAND = {
+    State.READY_TO_SWITCH_ON: CMD_SHUTDOWN,
+    State.SWITCHED_ON: CMD_SWITCH_ON,
+    State.OPERATION_ENABLED: CMD_ENABLE_OPERATION,
+    State.QUICK_STOP_ACTIVE: CMD_QUICK_STOP,
+}
+
+
+def hold_command(current: State) -> int:
+    """The device control command that keeps a drive in ``current`` (disable voltage where no
+    command holds the state: it cannot raise any state)."""
+    return HOLD_COMMAND.get(current, CMD_DISABLE_VOLTAGE)

@@ -311,7 +311,8 @@ class DriveFamily:
 
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
                             cycle_period: float) -> JointDriver:
-        """The driver of one axis: the CiA 402 axis unless the family brings its own."""
+        """The driver of one axis: the CiA 402 axis (given the family's ``AxisQuirks`` where its drive
+        differs) unless the family brings its own."""
         return Axis(node, axis, timeouts, cycle_period, profile=self)
 
     # -- EMCY ----------------------------------------------------------------------------------

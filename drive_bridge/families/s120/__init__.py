@@ -4,10 +4,10 @@ Modules: objects (indices, offsets, parameter numbers), eds (the vendor's modula
 adapted to the configured slots), pdos (default map, COB-IDs of further drive objects, PDO
 limits), boot (boot steps), units (drive units -> SI), options (the axis ``drive:`` settings),
 emcy (fault numbers and drive objects), parameters (p/r numbers through the window 0x2000+ and
-the selector p8630), driver (:class:`S120Axis`), family (:class:`SinamicsS120`, registered as
-``sinamics_s120``).
+the selector p8630), driver (:class:`S120Quirks`: what its CiA 402 axis does differently), family
+(:class:`SinamicsS120`, registered as ``sinamics_s120``).
 """
-from drive_bridge.families.s120.driver import S120Axis
+from drive_bridge.families.s120.driver import S120Quirks
 from drive_bridge.families.s120.family import SinamicsS120
 
-__all__ = ['S120Axis', 'SinamicsS120']
+__all__ = ['S120Quirks', 'SinamicsS120']

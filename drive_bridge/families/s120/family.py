@@ -38,6 +38,7 @@ from typing import Any
 from canopen import ObjectDictionary
 
 from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects
 from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness
@@ -45,7 +46,7 @@ from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
 from drive_bridge.families.s120 import boot, eds, emcy, objects as s, pdos
-from drive_bridge.families.s120.driver import S120Axis
+from drive_bridge.families.s120.driver import S120Quirks
 from drive_bridge.families.s120.options import parse_options
 from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, S120Parameters, read_number, sdo_index
 from drive_bridge.joint import JointDriver, NodeIo
@@ -81,7 +82,7 @@ class SinamicsS120(DriveFamily):
 
     def __init__(self) -> None:
         self._mappable: dict[int, bool] | None = None  # from the prepared EDS: index -> PDO-mappable
-        self._drivers: dict[int, S120Axis] = {}  # by slot (one family instance per node)
+        self._drivers: dict[int, S120Quirks] = {}  # by slot (one family instance per node)
         self._slot_of_do: dict[int, int] = {}  # DO number -> slot (p8743, read at boot)
         self._do_of_slot: dict[int, int] = {}
         self._cycle_period: float | None = None
@@ -132,10 +133,10 @@ class SinamicsS120(DriveFamily):
     # -- the joint driver ----------------------------------------------------------------------------
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
                             cycle_period: float) -> JointDriver:
-        driver = S120Axis(node, axis, timeouts, cycle_period, profile=self)
+        driver = S120Quirks(axis)
         self._drivers[axis.slot] = driver
         self._cycle_period = cycle_period
-        return driver
+        return Axis(node, axis, timeouts, cycle_period, profile=self, quirks=driver)
 
     # -- boot -----------------------------------------------------------------------------------------
     def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:

@@ -1,10 +1,10 @@
-"""The joint driver of a SERVOSTAR: the CiA 402 axis with what the SERVOSTAR does differently
-(shared/drives/servostar-400-600.md §3, §4, §5).
+"""The quirks of a SERVOSTAR: what its CiA 402 axis does differently (handed to the axis as
+:class:`ServostarQuirks`; shared/drives/servostar-400-600.md §3, §4, §5).
 
 - **No Fault state.** The statusword never shows the Fault pattern: a fault is bit 31 of the
   status register 0x1002 (TPDO 1) or an EMCY of category 1, 2 or 4 whose follow-up (code 0x0000)
   still reports a pending error register. The axis then reports the device state FAULT (and so
-  the drive-independent state ``fault``), refuses to enable, and :meth:`reset_fault` clears it
+  the drive-independent state ``fault``), refuses to enable, and :meth:`ServostarQuirks.reset_fault` clears it
   the way its category says: category 2 (following error 0x8611, response monitoring 0x8181,
   ...) by a rising edge of controlword bit 11; category 1 and 4 (and a pending error whose EMCY
   the bridge did not see) by bit 7, after which the drive restarts: the reset waits until the
@@ -29,19 +29,19 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 
 from drive_bridge.cia402 import statemachine as sm
-from drive_bridge.cia402.axis import HOLD_COMMAND, Axis
 from drive_bridge.cia402.errors import AxisError
 from drive_bridge.cia402.modes import mode_name, parse_mode
-from drive_bridge.cia402.profile import Cia402Profile, FaultModel
+from drive_bridge.cia402.quirks import AxisPort, AxisQuirks, Output
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.families.servostar import emcy, objects as o
 from drive_bridge.families.servostar.options import AxisOptions
 from drive_bridge.families.servostar.units import DriveUnits
-from drive_bridge.joint import AxisSnapshot, NodeIo, Setpoint
-from drive_bridge.model import AxisConfig, Timeouts
+from drive_bridge.joint import Setpoint
+from drive_bridge.model import AxisConfig
 
 log = logging.getLogger('drive_bridge.families.servostar')
 STANDSTILL_RPM = 1.0  # |speed| below this is standstill for a mode change
@@ -60,16 +60,13 @@ def parse_family_mode(mode: int | str) -> int:
     return parse_mode(mode)
 
 
-class ServostarAxis(Axis):
+class ServostarQuirks(AxisQuirks):
     """The one axis of a SERVOSTAR node."""
 
-    def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float,
-                 profile: Cia402Profile) -> None:
-        super().__init__(node, config, timeouts, cycle_period, profile=profile)
+    def __init__(self, config: AxisConfig) -> None:
         self.options = AxisOptions.of(config.drive)
         self.units: DriveUnits | None = None
         self.ptbase_period: float | None = None  # s, PTBASE as read at boot
-        self.key.update(status_register=(o.STATUS_REGISTER, 0), pp_target=o.TARGET_POSITION_PP)
         self._configured_limit = config.limits.max_velocity
         self._node_resets = 0
         self._reset_stamp = 0.0
@@ -79,32 +76,34 @@ class ServostarAxis(Axis):
         self._emcy_marker: tuple[int, int] = (0, 0)
         self._emcy_faults: dict[int, int] = {}  # code -> category, pending by the EMCY state machine
 
+    def attach(self, axis: AxisPort) -> None:
+        super().attach(axis)
+        axis.key.update(status_register=(o.STATUS_REGISTER, 0), pp_target=o.TARGET_POSITION_PP)
+
     # -- boot ---------------------------------------------------------------------------------------
     def apply_units(self, units: DriveUnits, ptbase_period: float | None) -> None:
         """The drive's units and limits as read at boot: SI scaling, max_velocity = VLIM at the joint
         unless the config gives less (the caller checked that it does not give more)."""
-        scaling = units.scaling(self.options, self.config.joint_type)
-        vlim = units.joint_speed_limit(self.options, self.config.joint_type)
+        config = self.axis.config
+        scaling = units.scaling(self.options, config.joint_type)
+        vlim = units.joint_speed_limit(self.options, config.joint_type)
         limit = self._configured_limit if vlim is None or (
             self._configured_limit is not None and self._configured_limit <= vlim) else vlim
-        with self._cond:
+        with self.axis.lock:
             self.units = units
             self.ptbase_period = ptbase_period
-            self.config = replace(self.config, scaling=scaling, limits=replace(self.config.limits, max_velocity=limit))
-            self._stop_deceleration = None
+            self.axis.update_config(replace(config, scaling=scaling, limits=replace(config.limits, max_velocity=limit)))
 
     def on_node_reset(self) -> None:
-        super().on_node_reset()
-        with self._cond:
-            self._node_resets += 1
-            self._reset_stamp = time.time()
-            self._hold = None
+        self._node_resets += 1
+        self._reset_stamp = time.time()
+        self._hold = None
 
     # -- faults -------------------------------------------------------------------------------------
     def _pending_emcy_faults(self) -> dict[int, int]:
         """code -> category of the faults the EMCYs report pending (the drive's error state
         machine: a fault EMCY, then code 0x0000 frames whose register is what is left)."""
-        history = self.node.emcy_history()
+        history = self.axis.node.emcy_history()
         marker = (len(history), id(history[-1]) if history else 0)
         if marker != self._emcy_marker:
             faults: dict[int, int] = {}
@@ -120,35 +119,28 @@ class ServostarAxis(Axis):
         return self._emcy_faults
 
     def _register_fault(self) -> bool:
-        register = self.node.read(*self.key['status_register'])
+        register = self.axis.read('status_register')
         return register is not None and bool(int(register) & o.DRVSTAT_ERROR_PENDING)
 
     def fault_pending(self) -> bool:
         """The drive reports a fault (0x1002 bit 31, or a fault EMCY still pending)."""
         return self._register_fault() or bool(self._pending_emcy_faults())
 
-    def _state_of(self, statusword: int) -> State:
-        state = super()._state_of(statusword)
+    def state_of(self, statusword: int) -> State:
+        state = super().state_of(statusword)
         self._device_state = state
         return State.FAULT if self.fault_pending() else state
 
-    def _device_command(self, state: State) -> int:
+    def fault_hold(self, state: State) -> int | None:
         """In a fault the drive reacts by itself: category 2 brakes on the emergency ramp with the
         output stage on (the controlword keeps the state the statusword shows: never "disable
         voltage" under a braking drive), categories 1 and 4 switch the stage off (disable
-        voltage, so no enable command reaches it); plus the reset bit's edge while a reset runs."""
+        voltage, so no enable command reaches it); the axis adds the reset bit's edge."""
         if state is not State.FAULT:
-            return super()._device_command(state)
+            return None
         if self._fault_categories() - {2}:  # the drive switched its output stage off
-            hold = sm.CMD_DISABLE_VOLTAGE
-        else:  # category 2: it brakes on the emergency ramp, its stage on
-            hold = HOLD_COMMAND.get(self._device_state, sm.CMD_DISABLE_VOLTAGE)
-        if self._fault_reset_phase == 1:
-            self._fault_reset_phase = 2
-            return hold  # the reset bit low: its rising edge comes next
-        if self._fault_reset_phase == 2:
-            return hold | 1 << self.fault_model.reset_bit
-        return hold
+            return sm.CMD_DISABLE_VOLTAGE
+        return sm.hold_command(self._device_state)  # category 2: it brakes, its stage on
 
     def _fault_categories(self) -> set[int]:
         categories = set(self._pending_emcy_faults().values())
@@ -156,82 +148,73 @@ class ServostarAxis(Axis):
             categories.add(0)  # pending without an EMCY the bridge saw: the reset restarts the drive
         return categories
 
-    def reset_fault(self, timeout: float | None = None) -> None:
+    def reset_fault(self, timeout: float | None) -> None:
         """Category 2 by the rising edge of bit 11; categories 1 and 4 (or unknown) by bit 7,
         after which the drive restarts and is configured again by the master (waited for)."""
-        self._require_available()
-        if self.state is not State.FAULT:
+        axis = self.axis
+        if axis.state is not State.FAULT:
             return
-        categories = self._fault_categories()
-        restart = bool(categories - {2})
-        self.fault_model = FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT if restart else o.CW_ACKNOWLEDGE)
-        if not restart:
-            super().reset_fault(timeout)
-            with self._cond:
-                self._message = 'fault acknowledged (controlword bit 11)'
+        if not self._fault_categories() - {2}:
+            axis.reset_by_edge(o.CW_ACKNOWLEDGE, timeout)
+            axis.say('fault acknowledged (controlword bit 11)')
             return
         resets = self._node_resets
-        with self._cond:
-            self._target_state = State.SWITCH_ON_DISABLED
-            self._fault_reset_phase = 1
-        wait = timeout if timeout is not None else max(5.0, 3 * self.timeouts.boot + self.timeouts.state_switch)
+        wait = timeout if timeout is not None else max(5.0, 3 * axis.timeouts.boot + axis.timeouts.state_switch)
 
         def back() -> bool:
-            return (self._node_resets > resets and self.node.available
-                    and self.node.stamp(*self.key['statusword']) > self._reset_stamp and not self.fault_pending())
-        try:
-            self._wait(back, wait, 'fault reset (controlword bit 7: the drive restarts and is configured again)')
-        except AxisError as exc:
-            with self._cond:
-                self._fault_reset_phase = 0
-            restarted = 'it restarted, but the fault is still present' if self._node_resets > resets else \
+            return (self._node_resets > resets and axis.node.available
+                    and axis.node.stamp(*axis.key['statusword']) > self._reset_stamp and not self.fault_pending())
+
+        def failed() -> str:
+            return 'it restarted, but the fault is still present' if self._node_resets > resets else \
                 'it did not restart'
-            raise AxisError(f'{exc}; {restarted}{self._fault_text()}') from None
-        self._reset_emcy_count = len(self.node.emcy_history())
-        with self._cond:
-            self._message = ('fault reset (controlword bit 7): the drive restarted and was configured again; '
-                             'enable the axis to move it')
+        axis.reset_by_edge(o.CW_RESET_FAULT, wait, back,
+                           'fault reset (controlword bit 7: the drive restarts and is configured again)', failed)
+        axis.say('fault reset (controlword bit 7): the drive restarted and was configured again; '
+                 'enable the axis to move it')
 
     # -- modes --------------------------------------------------------------------------------------
     def _moving(self) -> bool:
-        speed = self.node.read(*self.key['velocity'])
+        speed = self.axis.node.read(*self.axis.key['velocity'])
         return speed is not None and abs(int(speed)) * o.SPEED_RPM_PER_BIT > STANDSTILL_RPM
 
-    def set_mode(self, mode: int | str, timeout: float | None = None) -> None:
+    def parse_mode(self, mode: int | str) -> int:
+        return parse_family_mode(mode)
+
+    def before_mode_change(self, code: int) -> bool:
         """0x6060 (write-only) confirmed by 0x6061; only at standstill; 0xFA only with PTBASE = SYNC."""
-        self._require_available()
-        code = parse_family_mode(mode)
-        self._check_supported(code)
-        if code == self._mode and self._value('mode_display') == code:
-            return
+        axis = self.axis
+        if code == axis.mode and axis.read('mode_display') == code:
+            return False
         if code == o.MODE_TRAJECTORY:
             problem = self.trajectory_period_problem()
             if problem:
-                raise AxisError(f'{self._where()}: mode {mode_label(code)} refused: {problem}')
-        if self.state is State.OPERATION_ENABLED and self._moving():
-            raise AxisError(f'{self._where()}: the SERVOSTAR changes modes only at standstill; stop the motor '
+                raise AxisError(f'{axis.where()}: mode {mode_label(code)} refused: {problem}')
+        if axis.state is State.OPERATION_ENABLED and self._moving():
+            raise AxisError(f'{axis.where()}: the SERVOSTAR changes modes only at standstill; stop the motor '
                             f'before switching to {mode_label(code)}')
-        super().set_mode(code, timeout)
+        return True
 
     def trajectory_period_problem(self) -> str:
         """Why mode 0xFA cannot run at the SYNC period ('' when it can)."""
         if self.ptbase_period is None:
             return ''
-        if abs(self.ptbase_period - self.cycle_period) > 1e-6:
+        period = self.axis.cycle_period
+        if abs(self.ptbase_period - period) > 1e-6:
             return (f'PTBASE (0x35D5) is {self.ptbase_period * 1000:g} ms, the SYNC period '
-                    f'{self.cycle_period * 1000:g} ms; set PTBASE = SYNC period / 250 us, SAVE and restart the drive')
+                    f'{period * 1000:g} ms; set PTBASE = SYNC period / 250 us, SAVE and restart the drive')
         return ''
 
-    def command_field(self) -> str | None:
-        return 'position' if self._mode == o.MODE_TRAJECTORY else super().command_field()
+    def command_field(self, mode: int) -> str | None:
+        return 'position' if mode == o.MODE_TRAJECTORY else super().command_field(mode)
 
     # -- trajectory setpoints -----------------------------------------------------------------------
     def step_limit(self) -> float | None:
         """The largest step (increments) between two setpoints: VLIM x the SYNC period."""
-        return self.units.step_limit(self.cycle_period) if self.units is not None else None
+        return self.units.step_limit(self.axis.cycle_period) if self.units is not None else None
 
     def _last_setpoint(self) -> int | None:
-        value = self._targets.get('target_position', self._hold)
+        value = self.axis.intents.targets.get('target_position', self._hold)
         return self._last_sent if value is None else value
 
     def _step_problem(self, target: int) -> str:
@@ -240,44 +223,44 @@ class ServostarAxis(Axis):
             return ''
         assert self.units is not None
         return (f'a step of {abs(target - previous)} increments from the last setpoint {previous} to {target} '
-                f'reaches VLIM x period ({self.units.vlim_rpm:g} rpm x {self.cycle_period * 1000:g} ms = '
+                f'reaches VLIM x period ({self.units.vlim_rpm:g} rpm x {self.axis.cycle_period * 1000:g} ms = '
                 f'{limit:.0f} increments)')
 
-    def _apply_setpoint(self, setpoint: Setpoint) -> None:
-        if setpoint.position is not None and self._mode == o.MODE_TRAJECTORY:
-            problem = self._step_problem(self.config.scaling.position_to_device(setpoint.position))
-            if problem:  # never sent: the stream stops, the axis holds its last setpoint (HALT)
-                self._source = None
-                self._halt = True
-                self._message = f'{problem}: not sent, stream aborted, axis held (HALT)'
-                log.warning('%s: %s', self._where(), self._message)
-                return
-        super()._apply_setpoint(setpoint)
+    def setpoint_refusal(self, setpoint: Setpoint) -> str:
+        """A trajectory step of VLIM x period or more is never sent: the stream stops (HALT)."""
+        if setpoint.position is None or self.axis.mode != o.MODE_TRAJECTORY:
+            return ''
+        problem = self._step_problem(self.axis.config.scaling.position_to_device(setpoint.position))
+        if not problem:
+            return ''
+        message = f'{problem}: not sent, stream aborted, axis held (HALT)'
+        log.warning('%s: %s', self.axis.where(), message)
+        return message
 
-    def check_command(self, position: float | None = None, velocity: float | None = None,
-                      effort: float | None = None) -> None:
-        if self._mode != o.MODE_TRAJECTORY:
-            super().check_command(position, velocity, effort)
-            return
-        self._check_limits(position, velocity, effort)
+    def check_command(self, position: float | None, velocity: float | None, effort: float | None) -> bool:
+        axis = self.axis
+        if axis.mode != o.MODE_TRAJECTORY:
+            return False
+        axis.check_limits(position, velocity, effort)
         if velocity is not None or effort is not None:
-            raise AxisError(f'{self._where()}: mode {mode_label(self._mode)} takes positions only')
-        if not self.node.available:
-            raise AxisError(f'{self._where()}: node not available (NMT {self.node.nmt_state})')
-        if self.state is not State.OPERATION_ENABLED:
-            raise AxisError(f'{self._where()}: {self.state.label}, not operation enabled; {self._way_out()}')
+            raise AxisError(f'{axis.where()}: mode {mode_label(axis.mode)} takes positions only')
+        if not axis.node.available:
+            raise AxisError(f'{axis.where()}: node not available (NMT {axis.node.nmt_state})')
+        if axis.state is not State.OPERATION_ENABLED:
+            raise AxisError(f'{axis.where()}: {axis.state.label}, not operation enabled; {axis.way_out()}')
         if position is not None:
-            with self._cond:
-                problem = self._step_problem(self.config.scaling.position_to_device(position))
+            with axis.lock:
+                problem = self._step_problem(axis.config.scaling.position_to_device(position))
             if problem:
-                raise AxisError(f'{self._where()}: {problem}; move there with a trajectory')
+                raise AxisError(f'{axis.where()}: {problem}; move there with a trajectory')
+        return True
 
-    def _cycle_targets(self, state: State, now: float) -> dict[str, int]:
-        targets = super()._cycle_targets(state, now)
-        if self._mode != o.MODE_TRAJECTORY or state is not State.OPERATION_ENABLED:
+    def cycle_targets(self, state: State, targets: dict[str, int]) -> dict[str, int]:
+        commanded = self.axis.intents.targets
+        if self.axis.mode != o.MODE_TRAJECTORY or state is not State.OPERATION_ENABLED:
             self._hold = None
-        elif 'target_position' in self._targets:
-            self._hold = self._targets['target_position']
+        elif 'target_position' in commanded:
+            self._hold = commanded['target_position']
         else:  # enabled and idle: hold the last setpoint, never follow the actual position
             if self._hold is None:
                 self._hold = targets.get('target_position')
@@ -285,43 +268,33 @@ class ServostarAxis(Axis):
                 targets['target_position'] = self._hold
         return targets
 
-    def _write(self, name: str, value: int | float) -> None:
+    def outputs(self, name: str, value: int | float) -> Sequence[Output]:
+        mode, units = self.axis.mode, self.units
         if name == 'target_torque':
-            return  # no torque target in the modes the bridge drives
+            return ()  # no torque target in the modes the bridge drives
         if name == 'target_velocity':
-            if self._mode != o.MODE_PV or self.units is None:
-                return
-            si = self.config.scaling.velocity_to_si(value)
-            value = self.units.pv_target(si, self.options, self.config.joint_type)
-        elif name == 'target_position':
-            if self._mode == o.MODE_PP:
-                if self.units is not None:
-                    super()._write('pp_target', self.units.to_user_units(int(value)))
-                return
+            if mode != o.MODE_PV or units is None:
+                return ()
+            si = self.axis.config.scaling.velocity_to_si(value)
+            return ((name, units.pv_target(si, self.options, self.axis.config.joint_type)),)
+        if name == 'target_position':
+            if mode == o.MODE_PP:
+                return (('pp_target', units.to_user_units(int(value))),) if units is not None else ()
             self._last_sent = int(value)
-            if self.units is not None:
-                value = self.units.to_setpoint(int(value))
-        super()._write(name, value)
+            if units is not None:
+                return ((name, units.to_setpoint(int(value))),)
+        return ((name, value),)
 
-    def commanded_position(self) -> float:
-        if self._last_sent is None or self.state is not State.OPERATION_ENABLED or self._mode == o.MODE_PP:
-            return super().commanded_position()
-        return self.config.scaling.position_to_si(self._last_sent)
+    def commanded_position(self) -> int | None:
+        if self._last_sent is None or self.axis.state is not State.OPERATION_ENABLED or self.axis.mode == o.MODE_PP:
+            return None
+        return self._last_sent
 
-    def stop_deceleration(self) -> float:
-        if self._stop_deceleration is None and self.config.limits.max_acceleration is None and self.units:
-            vlim = self.units.joint_speed_limit(self.options, self.config.joint_type)
-            if vlim and self.units.dec_ms:
-                self._stop_deceleration = vlim / (self.units.dec_ms / 1000.0)
-        if self._stop_deceleration is None:
-            self._stop_deceleration = self.config.limits.max_acceleration or 1.0
-        return self._stop_deceleration
-
-    def state_key(self) -> tuple[object, ...]:
-        return (*super().state_key(), self.fault_pending())
-
-    def snapshot(self) -> AxisSnapshot:
-        snapshot = super().snapshot()
-        if snapshot.available and self.fault_pending():
-            return replace(snapshot, fault=True)
-        return snapshot
+    def stop_deceleration(self) -> float | None:
+        """Without a max_acceleration limit: VLIM over the drive's ramp DEC (else 1 unit/s^2)."""
+        config, units = self.axis.config, self.units
+        if config.limits.max_acceleration is None and units:
+            vlim = units.joint_speed_limit(self.options, config.joint_type)
+            if vlim and units.dec_ms:
+                return vlim / (units.dec_ms / 1000.0)
+        return config.limits.max_acceleration or 1.0

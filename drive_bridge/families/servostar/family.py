@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from drive_bridge.cia301.emcy import EmcyEvent
+from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, standard_strategy
 from drive_bridge.families.interface import BootDetection, DriveFamily, Liveness, PdoConfiguration
@@ -45,7 +46,7 @@ from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
 from drive_bridge.families.servostar import boot, emcy, objects as o, pdos
-from drive_bridge.families.servostar.driver import ServostarAxis, mode_label
+from drive_bridge.families.servostar.driver import ServostarQuirks, mode_label
 from drive_bridge.families.servostar.errors import ServostarBootError
 from drive_bridge.families.servostar.options import parse_options
 from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE, ServostarParameters
@@ -87,7 +88,7 @@ class Servostar(DriveFamily):
     fault_model = FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT)
 
     def __init__(self) -> None:
-        self._drivers: dict[int, ServostarAxis] = {}  # by slot (one family instance per node)
+        self._drivers: dict[int, ServostarQuirks] = {}  # by slot (one family instance per node)
         self._cycle_period: float | None = None
         self._units: DriveUnits | None = None  # as the last boot read them
 
@@ -178,10 +179,10 @@ class Servostar(DriveFamily):
 
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
                             cycle_period: float) -> JointDriver:
-        driver = ServostarAxis(node, axis, timeouts, cycle_period, profile=self)
+        driver = ServostarQuirks(axis)
         self._drivers[axis.slot] = driver
         self._cycle_period = cycle_period
-        return driver
+        return Axis(node, axis, timeouts, cycle_period, profile=self, quirks=driver)
 
     # -- EMCY and parameters ------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
