@@ -417,7 +417,7 @@ def test_a_representation_word_the_bridge_cannot_read_fails_the_boot() -> None:
             assert (index, subindex) == (0x2004, 0)
             return table
 
-    step = dict(family.boot_steps_before(Port()))['representation words 0x2003 / 0x2004']  # type: ignore[arg-type]
+    step = dict(family.node(config).boot_steps_before(Port()))['representation words 0x2003 / 0x2004']  # type: ignore[arg-type]
     with pytest.raises(Exception, match=r'actual_velocity 0x2012:01 \(tab_osc\[0\]\): representation word '
                                         r'0x0010 is not one the appendix shows'):
         step(Port())  # type: ignore[arg-type]

@@ -9,23 +9,25 @@ streaming and the ROS layer ask the family and never test a vendor name.
 |----------------------------------|--------------------------------------------------------|
 | how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``,                |
 |                                  | ``bootup_emcy_is_ambiguous``, ``nmt_reset_communication`` |
-| extra boot steps                 | ``boot_steps_early``, ``boot_steps_before``,           |
-|                                  | ``boot_steps_after``                                   |
 | how is the node supervised?      | ``liveness``                                           |
 | how are PDOs configured?         | ``pdo_configuration``, ``pdo_comm_subindices``, ``select_pdo``, ``sent_on_write`` |
 | which objects carry the values?  | ``axis_objects``                                       |
 | what does an EMCY mean?          | ``decode_emcy``, ``is_stream_fault``                   |
 | which modes, streamed how?       | ``accepted_modes``, ``default_modes``, ``streaming_strategy``, ``pvt_record`` |
 | what is a fault, how is it reset?| ``fault_model``                                        |
-| which joint driver?              | ``create_joint_driver``                                |
-| vendor parameters?               | ``parameters``                                         |
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
 | which writes decide the reaction | ``safety_object`` (and ``ParameterAccess.safety``),    |
-| to a lost master or the link?    | ``runs_on_without_master``, ``stop_run_on``            |
+| to a lost master or the link?    | ``runs_on_without_master``                             |
 | defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
 | what the EDS and PDOs cannot say | ``prepare_object_dictionary``, ``check_pdos``          |
 | the axis' own ``drive`` settings | ``parse_axis_options``                                 |
 | is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
+| one node at run time             | ``node``: its :class:`~drive_bridge.families.node.FamilyNode` |
+
+The family holds no state: :func:`~drive_bridge.families.get_family` gives one object per family
+for the configuration, a scan and every node. What is learned of one node (boot steps, the joint
+drivers, vendor parameters, the stop of a drive that runs on) is the per-node part's,
+:class:`~drive_bridge.families.node.FamilyNode`, made once per node by ``node``.
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum, IntEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import canopen
 from canopen import ObjectDictionary
@@ -42,15 +44,10 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
 from drive_bridge.cia301.vendors import vendor_name as cia301_vendor_name
 from drive_bridge.cia402 import objects as obj
-from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
-from drive_bridge.families.ports import BootStep, NodePort
-from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.families.node import FamilyNode
 from drive_bridge.joint.strategy import StreamStrategy
-from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
-
-if TYPE_CHECKING:
-    from drive_bridge.families.parameters import ParameterAccess, ParameterPort
+from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig
 
 STORE_PARAMETERS = 0x1010  # CiA 301: store parameters ("save")
 # objects that decide how a node reacts to the loss of its master or that change its link
@@ -196,6 +193,11 @@ class DriveFamily:
     pdo_comm_subindices: ClassVar[frozenset[int]] = frozenset({1, 2, 3, 5, 6})
     fault_model: ClassVar[FaultModel] = FaultModel()
 
+    def node(self, config: NodeConfig) -> FamilyNode:
+        """The per-node part of one configured node (made once per node, at run time); plain
+        CiA 301/402 by default. A family that learns something per node returns its own."""
+        return FamilyNode(self, config)
+
     # -- configuration defaults ------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
         """The shipped EDS for a node with ``axis_count`` axes (None: the config must name one)."""
@@ -262,19 +264,6 @@ class DriveFamily:
         reply or heartbeat) is not operational."""
         return False
 
-    def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:
-        """Steps right after boot-up, before the first SDO (identity): e.g. an NMT command a
-        node needs before it answers SDO at all."""
-        return ()
-
-    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        """Steps after boot-up and identity, before the configured boot SDOs."""
-        return ()
-
-    def boot_steps_after(self, node: NodePort) -> Sequence[BootStep]:
-        """Steps after PDOs and supervision are configured, before NMT start."""
-        return ()
-
     def liveness(self, config: NodeConfig) -> Liveness:
         """How this node is supervised: heartbeat when it produces one, else node guarding
         when a guard time is configured, else not at all."""
@@ -309,11 +298,6 @@ class DriveFamily:
         """Where PVT points go (None: the family has no PVT)."""
         return None
 
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
-        """The driver of one axis: the CiA 402 axis unless the family brings its own."""
-        return Axis(node, axis, timeouts, cycle_period, profile=self)
-
     # -- EMCY ----------------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         """Code, register and manufacturer bytes -> text, axis slot, severity, reset."""
@@ -323,11 +307,7 @@ class DriveFamily:
         """The EMCY reports an interpolation buffer underflow or overflow (aborts a stream)."""
         return event.code in self.interpolation_fault_codes
 
-    # -- vendor parameters ---------------------------------------------------------------------
-    def parameters(self, port: ParameterPort) -> ParameterAccess | None:
-        """Access to the drive's own parameters by their vendor names (None: not offered)."""
-        return None
-
+    # -- access ----------------------------------------------------------------------------------
     def safety_object(self, config: NodeConfig | None, index: int, subindex: int) -> str | None:
         """What this object decides when it is one of those that set how the drive reacts to the
         loss of its master or that change its communication (node id, bit rate, SYNC, guarding,
@@ -342,12 +322,6 @@ class DriveFamily:
     # the drive keeps its last references when its master goes silent (no heartbeat consumer,
     # no RPDO timeout, no action on a guarding loss): the bridge must stop it itself
     runs_on_without_master: ClassVar[bool] = False
-
-    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
-        """A drive that runs on by itself (``runs_on_without_master``) whose master liveness is
-        lost while it still sends: put its stop into this cycle's process data (``by_sdo``: write it
-        by SDO too, supervisor thread); True once the drive reports it is at rest."""
-        return True
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """An SDO write of this object stores the node's parameters in non-volatile memory or

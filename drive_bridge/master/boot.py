@@ -333,7 +333,7 @@ def configure_guarding(node: NodeRuntime) -> None:
 
 def boot_node(node: NodeRuntime, master: MasterConfig, progress: Callable[[str], None]) -> None:
     """The whole boot of one node; raises BootError at the first failing step."""
-    family = node.family
+    family = node.family_node
     steps: tuple[tuple[str, Callable[[], None]], ...] = (
              ('boot-up', lambda: wait_for_bootup(node)),
              *(_family_step(node, step) for step in family.boot_steps_early(node)),

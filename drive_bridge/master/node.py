@@ -70,7 +70,8 @@ class NodeRuntime:
     def __init__(self, network: canopen.Network, config: NodeConfig, master: MasterConfig,
                  on_emcy: Callable[[EmcyEvent, bool], None], on_error: Callable[[str], None]) -> None:
         self.config = config
-        self.family = get_family(config.family)
+        self.family = get_family(config.family)  # the description, one object per family
+        self.family_node = self.family.node(config)  # what the family learns of this node
         self.network = network
         self.remote = canopen.RemoteNode(config.node_id, config.od)
         network.add_node(self.remote)
@@ -180,7 +181,7 @@ class NodeRuntime:
             else:
                 self.bootup_seen.set()
                 self.nmt_state = NmtState.PRE_OPERATIONAL
-        event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
+        event = self.family_node.decode_emcy(payload, timestamp)
         self._emcy.append(event)
         limit = self.emcy_limit
         reported = limit.allow(time.monotonic())

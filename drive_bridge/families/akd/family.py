@@ -51,6 +51,7 @@ from drive_bridge.families.akd.parameters import (
     AkdParameters,
 )
 from drive_bridge.families.interface import DriveFamily
+from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
@@ -243,6 +244,14 @@ def _entry(index: int, bits: int, subindex: int = 0) -> PdoEntry:
     return PdoEntry(index, subindex, bits)
 
 
+class AkdNode(FamilyNode):
+    """One AKD at run time: the CiA 402 axis, and its ASCII parameters."""
+
+    def parameters(self, port: ParameterPort) -> AkdParameters:
+        """ASCII parameters (DRV.ACC, FBUS.PARAM04, ...) over the ASCII channel 0x2026."""
+        return AkdParameters(port)
+
+
 @register_family
 class Akd(DriveFamily):
     """Kollmorgen AKD (CANopen built in), one axis per node."""
@@ -280,9 +289,8 @@ class Akd(DriveFamily):
         record = obj.for_axis(obj.INTERPOLATION_DATA_RECORD, slot)
         return PvtRecord(position=(record, 1), time=(record, 2), velocity=(record, 3), time_unit=0.001)
 
-    def parameters(self, port: ParameterPort) -> AkdParameters:
-        """ASCII parameters (DRV.ACC, FBUS.PARAM04, ...) over the ASCII channel 0x2026."""
-        return AkdParameters(port)
+    def node(self, config: NodeConfig) -> AkdNode:
+        return AkdNode(self, config)
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """Also DRV.NVSAVE's own object, and the ASCII command channel, which passes any command

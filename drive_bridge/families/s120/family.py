@@ -29,7 +29,7 @@ which slot. What the bridge knows beyond the EDS (the config names the vendor's 
 """
 from __future__ import annotations
 
-import logging
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -40,18 +40,13 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects
-from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness
-from drive_bridge.families.parameters import ParameterPort
-from drive_bridge.families.ports import BootStep, NodePort
+from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness, PdoPlan
 from drive_bridge.families.registry import register_family
-from drive_bridge.families.s120 import boot, eds, emcy, objects as s, pdos
-from drive_bridge.families.s120.driver import S120Axis
+from drive_bridge.families.s120 import eds, emcy, objects as s, pdos
+from drive_bridge.families.s120.node import S120Node
 from drive_bridge.families.s120.options import parse_options
-from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, S120Parameters, read_number, sdo_index
-from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
-
-log = logging.getLogger('drive_bridge.families.s120')
+from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, sdo_index
+from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig
 
 # 1/s and rad (m): the loop corrects an error of 0.1 rad with 1 rad/s on top of the feed-forward.
 # Conservative for a real drive: an 8 ms cycle, the sampling time p8848 and the next-SYNC latch make
@@ -59,6 +54,13 @@ log = logging.getLogger('drive_bridge.families.s120')
 # with ~2 mrad max error in the loop's own frame (test_s120_family.py).
 DEFAULT_LOOP = PositionLoopConfig(gain=10.0, following_error=0.2)
 PROFILE_OBJECTS = (s.PROFILE_OBJECTS[0], s.PROFILE_OBJECTS[1] + s.PROFILE_OFFSET * (s.MAX_DRIVE_OBJECTS - 1))
+
+
+def _is_mappable(od: ObjectDictionary, index: int) -> bool:
+    """The (prepared) EDS has this profile object, PDO-mappable."""
+    if not PROFILE_OBJECTS[0] <= index <= PROFILE_OBJECTS[1] or index not in od:
+        return False
+    return bool(getattr(od[index], 'pdo_mappable', False))
 
 
 @register_family
@@ -79,13 +81,6 @@ class SinamicsS120(DriveFamily):
     default_position_loop = DEFAULT_LOOP
     pdo_comm_subindices = frozenset({1, 2, 3, 5})  # RPDO 1-2; TPDO 1-5 with 4 a reserved compatibility entry
 
-    def __init__(self) -> None:
-        self._mappable: dict[int, bool] | None = None  # from the prepared EDS: index -> PDO-mappable
-        self._drivers: dict[int, S120Axis] = {}  # by slot (one family instance per node)
-        self._slot_of_do: dict[int, int] = {}  # DO number -> slot (p8743, read at boot)
-        self._do_of_slot: dict[int, int] = {}
-        self._cycle_period: float | None = None
-
     # -- configuration ------------------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
         return None
@@ -97,20 +92,17 @@ class SinamicsS120(DriveFamily):
         return IdentityMatch.NONE
 
     def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:
-        problems = eds.prepare(od, slots)
-        self._mappable = {}
-        for index in od.indices:
-            if PROFILE_OBJECTS[0] <= index <= PROFILE_OBJECTS[1]:
-                entry = od[index]
-                self._mappable[index] = bool(getattr(entry, 'pdo_mappable', False))
-        return problems
-
-    def _is_mappable(self, index: int) -> bool:
-        return True if self._mappable is None else self._mappable.get(index, False)
+        return eds.prepare(od, slots)
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
-        return pdos.default_pdos(node_id, axes, synchronous, self._is_mappable)
+        return pdos.default_pdos(node_id, axes, synchronous)
+
+    def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                  od: ObjectDictionary) -> PdoPlan:
+        """The default map of the node's prepared EDS: what it lacks or will not map is left out."""
+        rpdos, tpdos = pdos.default_pdos(node_id, axes, synchronous, functools.partial(_is_mappable, od))
+        return PdoPlan(rpdos, tpdos, tuple(axes))
 
     def check_pdos(self, rpdos: Sequence[PdoConfig], tpdos: Sequence[PdoConfig], slots: Sequence[int]) -> list[str]:
         """The drive's PDO limits this node's PDOs break (for the loader; see the report)."""
@@ -129,69 +121,17 @@ class SinamicsS120(DriveFamily):
         targets, each +0x800 per slot; the target position 0x607A does not exist (never sent)."""
         return replace(AxisObjects.cia402(slot), position_actual=(s.profile_index(s.POSITION_ACTUAL, slot), 0))
 
-    # -- the joint driver ----------------------------------------------------------------------------
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
-        driver = S120Axis(node, axis, timeouts, cycle_period, profile=self)
-        self._drivers[axis.slot] = driver
-        self._cycle_period = cycle_period
-        return driver
-
-    # -- boot -----------------------------------------------------------------------------------------
-    def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:
-        return (('NMT enter pre-operational (p8684 may have left it stopped)', boot.enter_pre_operational),)
-
-    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        return (('drive objects p8743', self._read_drive_objects),
-                ('units p0408/p0418/r0333', self._read_units),
-                ('CAN sampling time p8848', self._check_sampling_time),
-                ('fault reaction p8641', self._check_fault_reaction),
-                ('PDO limits', boot.check_limits),
-                ('free the PDO COB-IDs', boot.free_cob_ids))
-
-    def _read_drive_objects(self, node: NodePort) -> None:
-        found = boot.read_drive_objects(node)
-        self._do_of_slot = found
-        self._slot_of_do = {do: slot for slot, do in found.items()}
-
-    def _read_units(self, node: NodePort) -> None:
-        for slot, do in sorted(self._do_of_slot.items()):
-            driver = self._drivers.get(slot)
-            units = boot.read_units(node, do, slot, driver.options.encoder if driver is not None else None)
-            if driver is not None:
-                driver.apply_units(units, do)
-            log.info('node %d (%s) slot %d = DO %d: %s', node.node_id, node.name, slot, do, units.describe())
-
-    def _check_sampling_time(self, node: NodePort) -> None:
-        boot.check_sampling_time(node, self._cycle_period)
-
-    def _check_fault_reaction(self, node: NodePort) -> None:
-        boot.warn_fault_reaction(node, self._do_of_slot)
-
     # -- EMCY and parameters ------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
-        return emcy.decode(node_id, node_name, data, timestamp, self._slot_of_do)
-
-    def drive_object_of(self, slot: int) -> int | None:
-        """The DO number of an axis slot (p8743, known once the node booted)."""
-        return self._do_of_slot.get(slot)
+        """Without the node's p8743 (a recording's offline decoding): the text, no joint; the
+        node's own part (:class:`~.node.S120Node`) knows the joint once the node booted."""
+        return emcy.decode(node_id, node_name, data, timestamp, {})
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """Also the parameter window of p0970/p0971/p0976/p0977 (reset, save, restore, save all)."""
         return (super().stores_parameters(config, index, subindex)
                 or index in {s.PARAMETER_BASE + number for number in s.STORE_NUMBERS})
 
-    def parameters(self, port: ParameterPort) -> S120Parameters:
-        """p/r parameters of any drive object (0x2000 + number, selector p8630)."""
-        config: NodeConfig | None = getattr(port, 'config', None)
-
-        def drive_object_of(slot: int | None) -> int:
-            if slot is None:
-                if config is None or not config.axes:
-                    raise LookupError('the node has no configured axis')
-                slot = config.axes[0].slot
-            known = self._do_of_slot.get(slot)
-            if known is not None:
-                return known
-            return int(read_number(port, s.CU_DO, s.P_DO_OF_SLOT, slot))
-        return S120Parameters(port, drive_object_of)
+    def node(self, config: NodeConfig) -> S120Node:
+        """The Control Unit at run time: its DOs (p8743), units and drivers (:mod:`~.node`)."""
+        return S120Node(self, config)
