@@ -10,6 +10,7 @@ from drive_bridge.families.interface import (
     Liveness,
     PdoConfiguration,
 )
+from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.registry import (
     ENTRY_POINT_GROUP,
     discover_families,
@@ -31,6 +32,6 @@ from drive_bridge.families import (
                                              servostar as _servostar,  # noqa: F401
 )
 
-__all__ = ['ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'IdentityMatch',
+__all__ = ['ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'FamilyNode', 'IdentityMatch',
            'Liveness', 'PdoConfiguration', 'discover_families', 'families_for_identity', 'family_names', 'get_family',
            'register_family', 'unregister_family']
