@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
 import yaml
 
 from bustools import config_from, running, unique_channel
@@ -72,3 +73,16 @@ def test_two_nodes_of_one_family_share_the_family_and_keep_their_own_parts() -> 
         assert x.family_node.cycle_period == y.family_node.cycle_period == config.master.cycle_period
         # and the family none: it is the same description before and after two boots
         assert dict(vars(family)) == empty == {}
+
+
+def test_a_family_that_sets_a_flat_trait_is_refused_naming_its_record() -> None:
+    from drive_bridge.families import FamilyError
+
+    class Flat(DriveFamily):
+        name = 'test_flat'
+        has_heartbeat = False
+
+    with pytest.raises(FamilyError, match=r'has_heartbeat: set boot = BootTraits\(has_heartbeat=\.\.\.\) instead'):
+        register_family(Flat)
+    with pytest.raises(FamilyError):
+        get_family('test_flat')

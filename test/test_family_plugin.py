@@ -34,7 +34,8 @@ PLUGIN = textwrap.dedent('''
     the EMCY's manufacturer bytes (byte 3 = axis slot, byte 4 = 1 warning / 2 fault); the boot
     reads each drive's device type into the node's own part."""
     from drive_bridge.cia301.emcy import Severity
-    from drive_bridge.families import BootDetection, DriveFamily, FamilyNode, Liveness, get_family
+    from drive_bridge.families import (AxisTraits, BootDetection, BootTraits, DriveFamily, FamilyNode, Liveness,
+                                       get_family)
     from drive_bridge.sim import SimDrive402, register_simulator
 
     BOOTUP = bytes.fromhex('b0ac000000000000')
@@ -56,8 +57,8 @@ PLUGIN = textwrap.dedent('''
     class AcmeGuarded(DriveFamily):
         name = 'acme_guarded'
         description = 'ACME servo (test plugin)'
-        boot_detection = BootDetection.EMCY
-        max_axes = 2
+        boot = BootTraits(detection=BootDetection.EMCY)
+        axes = AxisTraits(max_count=2)
 
         def eds_for(self, axis_count):
             return get_family('generic_402').eds_for(axis_count)

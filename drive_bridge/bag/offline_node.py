@@ -89,7 +89,7 @@ class OfflineNode:
             self.outputs.update(layout.unpack(data))
 
     def on_emcy(self, data: bytes, timestamp: float) -> EmcyEvent:
-        if self.family.boot_detection is BootDetection.EMCY and self.family.is_bootup_emcy(data) \
+        if self.family.boot.detection is BootDetection.EMCY and self.family.is_bootup_emcy(data) \
                 and not (self.state is NmtState.OPERATIONAL and self.family.bootup_emcy_is_ambiguous(data)):
             self.state = NmtState.PRE_OPERATIONAL
         event = self.family_node.decode_emcy(data, timestamp)

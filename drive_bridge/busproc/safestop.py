@@ -7,7 +7,7 @@ Per axis (its ``on_node_loss`` settings, ``model.NodeLossConfig``):
 2. the bridge waits until the axis is at rest (|velocity| below :data:`REST_VELOCITY` of its
    limit, or the drive has left operation by itself), at most the time its stop deceleration
    needs plus :data:`REST_MARGIN`. A drive that runs on by itself (its family's
-   ``runs_on_without_master``: once this process is gone nothing stops it) gets its family's
+   ``boot.runs_on_without_master``: once this process is gone nothing stops it) gets its family's
    stop besides (``FamilyNode.stop_run_on``: by SDO every ``run_on.SDO_PERIOD``, while the
    joint driver's stop goes by PDO every cycle), and leaving operation is not the end for it:
    the bridge waits until the family reports the drive at rest, at most :data:`MAX_STOP_TIME`
@@ -42,9 +42,9 @@ FamilyStop = Callable[[bool], bool]  # FamilyNode.stop_run_on of one node: (by_s
 
 
 def family_stops(nodes: Iterable[NodeRuntime]) -> dict[str, FamilyStop]:
-    """Per joint of a drive that runs on by itself (``runs_on_without_master``): its family's stop."""
+    """Per joint of a drive that runs on by itself (``boot.runs_on_without_master``): its family's stop."""
     return {axis.joint: node.family_node.stop_run_on
-            for node in nodes if node.family.runs_on_without_master for axis in node.config.axes}
+            for node in nodes if node.family.boot.runs_on_without_master for axis in node.config.axes}
 
 
 def stop_all(axes: Mapping[str, JointDriver], executor: TrajectoryExecutor | None, reason: str,

@@ -84,7 +84,7 @@ class FamilyNode:
 
     # -- a drive that runs on by itself ----------------------------------------------------------
     def stop_run_on(self, by_sdo: bool) -> bool:
-        """A drive that runs on by itself (``DriveFamily.runs_on_without_master``) whose master
+        """A drive that runs on by itself (``DriveFamily.boot.runs_on_without_master``) whose master
         liveness is lost while it still sends: put its stop into this cycle's process data
         (``by_sdo``: write it by SDO too, supervisor thread); True once the drive reports it is
         at rest."""

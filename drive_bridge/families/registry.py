@@ -18,6 +18,7 @@ from importlib.metadata import entry_points
 
 from drive_bridge.families.errors import FamilyError
 from drive_bridge.families.interface import DriveFamily, IdentityMatch
+from drive_bridge.families.traits import FLAT_TRAITS
 from drive_bridge.model import Identity
 
 ENTRY_POINT_GROUP = 'drive_bridge.families'
@@ -35,6 +36,11 @@ def register_family(cls: type[DriveFamily]) -> type[DriveFamily]:
         raise FamilyError(f'{cls!r} is not a DriveFamily subclass')
     if not cls.name:
         raise FamilyError(f'{cls.__name__} has no name')
+    flat = sorted({name for k in cls.__mro__ if issubclass(k, DriveFamily) and k is not DriveFamily
+                   for name in vars(k) if name in FLAT_TRAITS})
+    if flat:
+        moved = '; '.join(f'{name}: set {FLAT_TRAITS[name]} instead' for name in flat)
+        raise FamilyError(f'{cls.__name__} sets {moved} (the traits are records: drive_bridge.families.traits)')
     _REGISTRY[cls.name] = cls
     _INSTANCES.pop(cls.name, None)
     return cls

@@ -114,7 +114,7 @@ class NodeRuntime:
         # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
         network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
         network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
-        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
+        if self.liveness is Liveness.HEARTBEAT or self.family.boot.detection is BootDetection.BOOTUP_FRAME:
             self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
 
     @property
@@ -174,7 +174,7 @@ class NodeRuntime:
 
     def _on_emcy_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
         payload = bytes(data)
-        if self.family.boot_detection is BootDetection.EMCY and self.family.is_bootup_emcy(payload):
+        if self.family.boot.detection is BootDetection.EMCY and self.family.is_bootup_emcy(payload):
             if self.boot_state in (BootState.OPERATIONAL, BootState.LOST) and \
                     self.family.bootup_emcy_is_ambiguous(payload):
                 self.bootup_suspected = time.monotonic()  # the next NMT state it reports tells

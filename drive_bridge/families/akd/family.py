@@ -54,6 +54,7 @@ from drive_bridge.families.interface import DriveFamily
 from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
+from drive_bridge.families.traits import ModeTraits
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
 from drive_bridge.resources import family_data
 
@@ -263,16 +264,14 @@ class Akd(DriveFamily):
         0x36E8: 'FBUS.PARAM04, SYNC supervision (F125 after 3 missing SYNCs)',
     }
     default_eds = family_data('akd', 'akd.eds')
-    has_cia402 = True
-    max_axes = 1
     emcy_texts = AKD_EMCY_TEXTS
-    pvt_submode = PVT_SUBMODE
-    default_interpolation = 'pvt'
-    interpolation_fault_codes = frozenset({EMCY_PVT_OVERFLOW, EMCY_PVT_UNDERFLOW})
     # 0x6502 = 0x65 (pp, pv, hm, ip) but 0x6060 accepts 4 and 8 too (akd.md §10.9); no csv/cst
-    default_modes = {'mode': 'ip', 'position_mode': 'ip', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
-    accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
-                                Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION})
+    modes = ModeTraits(
+        accepted=frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
+                            Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION}),
+        defaults={'mode': 'ip', 'position_mode': 'ip', 'velocity_mode': 'pv', 'effort_mode': 'pt'},
+        pvt_submode=PVT_SUBMODE, default_interpolation='pvt',
+        interpolation_fault_codes=frozenset({EMCY_PVT_OVERFLOW, EMCY_PVT_UNDERFLOW}))
 
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         """The manual's table; its nNNN rows and the general warning are warnings (the drive
@@ -301,7 +300,7 @@ class Akd(DriveFamily):
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
-        if len(axes) > self.max_axes:
+        if len(axes) > self.axes.max_count:
             raise ValueError(f'an AKD drives one axis, {len(axes)} given')
         rx_type = SYNC_EVERY_CYCLE if synchronous else EVENT_DRIVEN
         tx_type = SYNC_EVERY_CYCLE if synchronous else EVENT_DRIVEN

@@ -51,6 +51,7 @@ from drive_bridge.families.opendrive.node import OpenDriveNode
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
 from drive_bridge.families.opendrive.parameters import SAFETY_PARAMETERS
 from drive_bridge.families.registry import register_family
+from drive_bridge.families.traits import AxisTraits, BootTraits, ModeTraits, PdoTraits
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
 from drive_bridge.resources import family_data
 
@@ -73,17 +74,15 @@ class OpenDrive(DriveFamily):
     description = 'OPEN drive converter (CiA 301 only: RUN logic, CAN references, node guarding)'
     # the drive keeps its last RUN and references when its master goes silent (appendix §2.4: no
     # action on a life-guarding timeout in the default firmware, no heartbeat, no RPDO timeout)
-    runs_on_without_master = True
+    boot = BootTraits(has_heartbeat=False, runs_on_without_master=True)
     default_eds = family_data('opendrive', 'opendrive.eds')
-    has_cia402 = False
-    has_heartbeat = False
-    uses_axis_scaling = False  # the driver scales from the axis' drive settings (n_MAX, T_nom, ...)
-    max_axes = 1
+    # the driver scales from the axis' drive settings (n_MAX, T_nom, ...)
+    axes = AxisTraits(has_cia402=False, max_count=1, uses_axis_scaling=False)
     emcy_texts = alarms.EMCY_TEXTS
-    accepted_modes = frozenset({Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE})
-    default_modes = {'mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
+    modes = ModeTraits(accepted=frozenset({Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE}),
+                       defaults={'mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'})
     # RPDO records manage sub 1 and 2 only; TPDO records 1..5 (4 reserved); no SYNC start value
-    pdo_comm_subindices = frozenset({1, 2, 3, 5})
+    pdo = PdoTraits(comm_subindices=frozenset({1, 2, 3, 5}))
 
     # -- configuration ----------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -98,7 +97,7 @@ class OpenDrive(DriveFamily):
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
-        if len(axes) > self.max_axes:
+        if len(axes) > self.axes.max_count:
             raise ValueError(f'an OPEN drive drives one axis, {len(axes)} given')
         if not axes:
             return (), ()

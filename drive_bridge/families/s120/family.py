@@ -20,7 +20,7 @@ which slot. What the bridge knows beyond the EDS (the config names the vendor's 
   guarding step writes 0x1017 = 0, 0x100C and 0x100D;
 - modes: VL, PV and PT only (0x6060 always accepts a write and reads it back; 0x6061 tells);
   csp / ip / hm are refused before anything is sent; default pv, with the bridge's position
-  loop over 0x60FF for position commands and trajectories (``default_position_loop``);
+  loop over 0x60FF for position commands and trajectories (``modes.default_position_loop``);
 - position actual 0x6063 (no 0x6064); units read from the drive (:mod:`~.units`);
 - EMCY: fault number (bytes 3-4) and DO (byte 5) to the joint by p8743 (:mod:`~.emcy`);
 - faults: acknowledged by 0x1003:00 = 0 and the controlword edge (:mod:`~.driver`);
@@ -46,6 +46,7 @@ from drive_bridge.families.s120 import eds, emcy, objects as s, pdos
 from drive_bridge.families.s120.node import S120Node
 from drive_bridge.families.s120.options import parse_options
 from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, sdo_index
+from drive_bridge.families.traits import AxisTraits, BootTraits, ModeTraits, PdoTraits
 from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig
 
 # 1/s and rad (m): the loop corrects an error of 0.1 rad with 1 rad/s on top of the feed-forward.
@@ -71,15 +72,15 @@ class SinamicsS120(DriveFamily):
     description = 'Siemens SINAMICS S120 with CBC10 (CANopen; VL/PV/PT, the bridge closes the position loop)'
     vendor_safety_objects = {sdo_index(number): text for number, text in SAFETY_PARAMETERS.items()}
     default_eds = None  # the vendor's EDS, named by the config's dcf
-    has_cia402 = True
-    max_axes = s.MAX_DRIVE_OBJECTS
     emcy_texts = emcy.EMCY_CODE_TEXTS
-    accepted_modes = frozenset({Mode.VELOCITY, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE})
-    default_modes = {'mode': 'pv', 'position_mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
-    has_heartbeat = False  # as a consumer: life guarding is the drive's only way to notice a lost master
-    uses_axis_scaling = False  # units are read from the drive; the axis' `drive` settings give the mechanics
-    default_position_loop = DEFAULT_LOOP
-    pdo_comm_subindices = frozenset({1, 2, 3, 5})  # RPDO 1-2; TPDO 1-5 with 4 a reserved compatibility entry
+    modes = ModeTraits(accepted=frozenset({Mode.VELOCITY, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE}),
+                       defaults={'mode': 'pv', 'position_mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'},
+                       default_position_loop=DEFAULT_LOOP)
+    # as a consumer: life guarding is the drive's only way to notice a lost master
+    boot = BootTraits(has_heartbeat=False)
+    # units are read from the drive; the axis' `drive` settings give the mechanics
+    axes = AxisTraits(max_count=s.MAX_DRIVE_OBJECTS, uses_axis_scaling=False)
+    pdo = PdoTraits(comm_subindices=frozenset({1, 2, 3, 5}))  # RPDO 1-2; TPDO 1-5 with 4 a reserved compatibility entry
 
     # -- configuration ------------------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -112,7 +113,7 @@ class SinamicsS120(DriveFamily):
         return parse_options(options)
 
     def liveness(self, config: NodeConfig) -> Liveness:
-        """Life guarding: the config requires guard_time_ms (``has_heartbeat = False``)."""
+        """Life guarding: the config requires guard_time_ms (``boot.has_heartbeat`` false)."""
         return Liveness.GUARDING if config.guarding else Liveness.NONE
 
     # -- axes ---------------------------------------------------------------------------------------

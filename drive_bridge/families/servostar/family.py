@@ -39,12 +39,20 @@ from typing import Any
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, standard_strategy
-from drive_bridge.families.interface import BootDetection, DriveFamily, Liveness, PdoConfiguration
+from drive_bridge.families.interface import DriveFamily, Liveness
 from drive_bridge.families.registry import register_family
 from drive_bridge.families.servostar import emcy, objects as o, pdos
 from drive_bridge.families.servostar.node import ServostarNode
 from drive_bridge.families.servostar.options import parse_options
 from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE
+from drive_bridge.families.traits import (
+    AxisTraits,
+    BootDetection,
+    BootTraits,
+    ModeTraits,
+    PdoConfiguration,
+    PdoTraits,
+)
 from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig
 from drive_bridge.resources import family_data
@@ -63,20 +71,16 @@ class Servostar(DriveFamily):
         0x3515: 'CBAUD, the CAN bit rate',
     }
     default_eds = family_data('servostar', 'servostar.eds')
-    has_cia402 = True
-    max_axes = 1
     emcy_texts = emcy.EMCY_TEXTS
-    accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.HOMING, o.MODE_POSITION,
-                                o.MODE_SPEED_DIGITAL, o.MODE_CURRENT_DIGITAL, o.MODE_TRAJECTORY})
-    default_modes = {'mode': str(o.MODE_TRAJECTORY), 'position_mode': str(o.MODE_TRAJECTORY),
-                     'velocity_mode': 'pv', 'effort_mode': str(o.MODE_CURRENT_DIGITAL)}
-    boot_detection = BootDetection.EMCY
-    nmt_reset_communication = False
-    has_heartbeat = False
-    uses_axis_scaling = False  # PRBASE etc. are read at boot; the axis' `drive` settings give the mechanics
-    pdo_configuration = PdoConfiguration.SELECT_BY_NUMBER
-    pdo_comm_subindices = o.COMM_SUBINDICES
-    fault_model = FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT)
+    modes = ModeTraits(
+        accepted=frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.HOMING, o.MODE_POSITION,
+                            o.MODE_SPEED_DIGITAL, o.MODE_CURRENT_DIGITAL, o.MODE_TRAJECTORY}),
+        defaults={'mode': str(o.MODE_TRAJECTORY), 'position_mode': str(o.MODE_TRAJECTORY),
+                  'velocity_mode': 'pv', 'effort_mode': str(o.MODE_CURRENT_DIGITAL)})
+    boot = BootTraits(detection=BootDetection.EMCY, nmt_reset_communication=False, has_heartbeat=False)
+    pdo = PdoTraits(configuration=PdoConfiguration.SELECT_BY_NUMBER, comm_subindices=o.COMM_SUBINDICES)
+    # PRBASE etc. are read at boot; the axis' `drive` settings give the mechanics
+    axes = AxisTraits(uses_axis_scaling=False, fault_model=FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT))
 
     # -- configuration ------------------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -93,7 +97,7 @@ class Servostar(DriveFamily):
         return parse_options(options)
 
     def liveness(self, config: NodeConfig) -> Liveness:
-        """Node guarding: the config requires guard_time_ms (``has_heartbeat = False``)."""
+        """Node guarding: the config requires guard_time_ms (``boot.has_heartbeat`` false)."""
         return Liveness.GUARDING if config.guarding else Liveness.NONE
 
     # -- boot-up ------------------------------------------------------------------------------------
