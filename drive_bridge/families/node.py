@@ -19,17 +19,24 @@ per configured node (``DriveFamily.node``). Every hook defaults to plain CiA 301
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.axis import Axis
+from drive_bridge.cia402.profile import Cia402Profile
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.joint import JointDriver, NodeIo
 from drive_bridge.model import AxisConfig, NodeConfig, Timeouts
 
 if TYPE_CHECKING:
-    from drive_bridge.families.interface import DriveFamily
     from drive_bridge.families.parameters import ParameterAccess, ParameterPort
+
+
+class NodeFamily(Cia402Profile, Protocol):
+    """What a node's part asks of its family (a ``DriveFamily``): the CiA 402 profile its axes
+    are built with, and the family's EMCY decoding."""
+
+    def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent: ...
 
 
 class FamilyNode:
@@ -39,7 +46,7 @@ class FamilyNode:
     ``DriveFamily.node``; the subclass keeps what it learns on itself, never on the family.
     """
 
-    def __init__(self, family: DriveFamily, config: NodeConfig) -> None:
+    def __init__(self, family: NodeFamily, config: NodeConfig) -> None:
         self.family = family
         self.config = config
 

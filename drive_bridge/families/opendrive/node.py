@@ -6,8 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from drive_bridge.families.errors import ParameterError
-from drive_bridge.families.interface import DriveFamily
-from drive_bridge.families.node import FamilyNode
+from drive_bridge.families.node import FamilyNode, NodeFamily
 from drive_bridge.families.opendrive import boot
 from drive_bridge.families.opendrive.driver import RunLogicDriver
 from drive_bridge.families.opendrive.parameters import OpenDriveParameters
@@ -21,7 +20,7 @@ from drive_bridge.model import AxisConfig, NodeConfig, Timeouts
 class OpenDriveNode(FamilyNode):
     """One OPEN drive node (one axis)."""
 
-    def __init__(self, family: DriveFamily, config: NodeConfig) -> None:
+    def __init__(self, family: NodeFamily, config: NodeConfig) -> None:
         super().__init__(family, config)
         self.driver: RunLogicDriver | None = None
 

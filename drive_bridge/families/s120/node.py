@@ -7,8 +7,7 @@ import logging
 from collections.abc import Sequence
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.families.interface import DriveFamily
-from drive_bridge.families.node import FamilyNode
+from drive_bridge.families.node import FamilyNode, NodeFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.s120 import boot, emcy, objects as s
@@ -23,7 +22,7 @@ log = logging.getLogger('drive_bridge.families.s120')
 class S120Node(FamilyNode):
     """One node (a Control Unit) with up to 8 drive objects, one per axis slot."""
 
-    def __init__(self, family: DriveFamily, config: NodeConfig) -> None:
+    def __init__(self, family: NodeFamily, config: NodeConfig) -> None:
         super().__init__(family, config)
         self.drivers: dict[int, S120Axis] = {}  # by slot
         self.slot_of_do: dict[int, int] = {}  # DO number -> slot (p8743, read at boot)

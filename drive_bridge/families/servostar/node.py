@@ -6,8 +6,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 
-from drive_bridge.families.interface import DriveFamily
-from drive_bridge.families.node import FamilyNode
+from drive_bridge.families.node import FamilyNode, NodeFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.servostar import boot, objects as o
@@ -24,7 +23,7 @@ log = logging.getLogger('drive_bridge.families.servostar')
 class ServostarNode(FamilyNode):
     """One SERVOSTAR 400/600 node (one axis)."""
 
-    def __init__(self, family: DriveFamily, config: NodeConfig) -> None:
+    def __init__(self, family: NodeFamily, config: NodeConfig) -> None:
         super().__init__(family, config)
         self.drivers: dict[int, ServostarAxis] = {}  # by slot
         self.cycle_period: float | None = None
