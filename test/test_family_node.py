@@ -86,3 +86,20 @@ def test_a_family_that_sets_a_flat_trait_is_refused_naming_its_record() -> None:
         register_family(Flat)
     with pytest.raises(FamilyError):
         get_family('test_flat')
+
+
+def test_the_s120_map_of_a_config_that_gives_one_kind_follows_its_prepared_eds() -> None:
+    """The family keeps no EDS between hooks: given only its TPDOs, a node of the flat S120 EDS
+    (0x6060 not PDO-mappable there) gets the default RPDOs without 0x6060, as with no PDOs given."""
+    from test_s120_family import FLAT, example
+    if not FLAT.exists():
+        pytest.skip('the vendor EDS is not in ../shared')
+    data = example()
+    data['defaults']['dcf'] = str(FLAT)
+    whole = config_from(data).nodes[0]
+    data['nodes']['arm']['tpdo'] = {p.number: {'cob_id': p.cob_id, 'transmission': p.transmission,
+                                               'mapping': [{'index': e.index, 'sub_index': e.subindex}
+                                                           for e in p.mapping]} for p in whole.tpdo}
+    arm = config_from(data).nodes[0]
+    assert [[e.index for e in p.mapping] for p in arm.rpdo] == [[e.index for e in p.mapping] for p in whole.rpdo]
+    assert 0x6060 not in {e.index for p in arm.rpdo for e in p.mapping}

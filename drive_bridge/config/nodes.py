@@ -175,6 +175,8 @@ def _pdos(ctx: NodeContext, node: Section, name: str, node_id: int, family: Driv
             if od is not None and not explicit:
                 plan = family.plan_pdos(node_id, [d.axis for d in axes], synchronous, od)
                 rpdos, tpdos = plan.rpdos, plan.tpdos
+            elif od is not None:  # the config gives one kind: the family's map of the other, for this EDS
+                rpdos, tpdos = family.default_pdos_for_eds(node_id, [d.axis for d in axes], synchronous, od)
             else:
                 rpdos, tpdos = family.default_pdos(node_id, [d.axis for d in axes], synchronous)
             defaults = {'rpdo': rpdos, 'tpdo': tpdos}

@@ -19,7 +19,8 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
 | which writes decide the reaction | ``safety_object`` (and ``ParameterAccess.safety``),    |
 | to a lost master or the link?    | ``boot`` (runs_on_without_master)                      |
-| defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``axes`` (max_count) |
+| defaults for the config          | ``eds_for``, ``default_pdos``, ``default_pdos_for_eds``, ``plan_pdos``, |
+|                                  | ``axes`` (max_count)                                   |
 | what the EDS and PDOs cannot say | ``prepare_object_dictionary``, ``check_pdos``          |
 | the axis' own ``drive`` settings | ``parse_axis_options``                                 |
 | is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
@@ -196,11 +197,17 @@ class DriveFamily:
         """(RPDOs, TPDOs) used when the config gives no mapping."""
         return (), ()
 
+    def default_pdos_for_eds(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                             od: ObjectDictionary) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        """The family's fixed map as the node's loaded (and prepared) EDS ``od`` allows it, e.g.
+        without the objects it lacks or will not map; by default ``default_pdos``."""
+        return self.default_pdos(node_id, axes, synchronous)
+
     def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
                   od: ObjectDictionary) -> PdoPlan:
         """The default process data of a node whose config gives no mapping, for its EDS
-        ``od``; by default the family's fixed map (``default_pdos``)."""
-        rpdos, tpdos = self.default_pdos(node_id, axes, synchronous)
+        ``od``; by default the family's fixed map (``default_pdos_for_eds``)."""
+        rpdos, tpdos = self.default_pdos_for_eds(node_id, axes, synchronous, od)
         return PdoPlan(rpdos, tpdos, tuple(axes))
 
     def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:

@@ -40,7 +40,7 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects
-from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness, PdoPlan
+from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness
 from drive_bridge.families.registry import register_family
 from drive_bridge.families.s120 import eds, emcy, objects as s, pdos
 from drive_bridge.families.s120.node import S120Node
@@ -99,11 +99,10 @@ class SinamicsS120(DriveFamily):
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
         return pdos.default_pdos(node_id, axes, synchronous)
 
-    def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
-                  od: ObjectDictionary) -> PdoPlan:
+    def default_pdos_for_eds(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                             od: ObjectDictionary) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
         """The default map of the node's prepared EDS: what it lacks or will not map is left out."""
-        rpdos, tpdos = pdos.default_pdos(node_id, axes, synchronous, functools.partial(_is_mappable, od))
-        return PdoPlan(rpdos, tpdos, tuple(axes))
+        return pdos.default_pdos(node_id, axes, synchronous, functools.partial(_is_mappable, od))
 
     def check_pdos(self, rpdos: Sequence[PdoConfig], tpdos: Sequence[PdoConfig], slots: Sequence[int]) -> list[str]:
         """The drive's PDO limits this node's PDOs break (for the loader; see the report)."""
