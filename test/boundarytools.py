@@ -17,7 +17,8 @@ PACKAGE_DIR = Path(__file__).resolve().parent.parent / PACKAGE
 # The boundary's own modules under families/: core, not a family.
 BOUNDARY = frozenset({'drive_bridge.families', 'drive_bridge.families.interface', 'drive_bridge.families.parameters',
                       'drive_bridge.families.ports', 'drive_bridge.families.registry', 'drive_bridge.families.errors',
-                      'drive_bridge.families.drive_settings', 'drive_bridge.families.edswriter'})
+                      'drive_bridge.families.drive_settings', 'drive_bridge.families.edswriter',
+                      'drive_bridge.families.node', 'drive_bridge.families.traits'})
 
 
 def is_core(module: str) -> bool:

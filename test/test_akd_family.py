@@ -102,7 +102,7 @@ def test_emcy_texts_decode() -> None:
     assert texts[0x8130] == 'F129 Life Guard Error or Heartbeat Error'
     assert texts[0xFF01] == 'F702 Fieldbus communication lost'
     assert texts[0x0000] == 'Emergency error free'
-    assert family.interpolation_fault_codes == {0x8584, 0x8585}
+    assert family.modes.interpolation_fault_codes == {0x8584, 0x8585}
     # a frame from the simulated drive, decoded as the bridge does
     with akd_bus(NODE) as (_bench, sniffer, m, sims):
         mark = sniffer.mark

@@ -160,11 +160,11 @@ def test_boot_sdos_to_the_guard_objects_are_warnings(tmp_path: Path) -> None:
 
 
 def test_a_family_without_heartbeat_must_be_guarded(tmp_path: Path) -> None:
-    from drive_bridge.families import DriveFamily, register_family, unregister_family
+    from drive_bridge.families import BootTraits, DriveFamily, register_family, unregister_family
 
     class NoHeartbeat(DriveFamily):
         name = 'test_no_heartbeat'
-        has_heartbeat = False
+        boot = BootTraits(has_heartbeat=False)
         default_eds = AKD_EDS
 
     register_family(NoHeartbeat)

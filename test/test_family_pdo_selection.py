@@ -13,7 +13,14 @@ import pytest
 
 from akdtools import Sniffer
 from bustools import config_from, running, unique_channel
-from drive_bridge.families import DriveFamily, PdoConfiguration, get_family, register_family, unregister_family
+from drive_bridge.families import (
+    DriveFamily,
+    PdoConfiguration,
+    PdoTraits,
+    get_family,
+    register_family,
+    unregister_family,
+)
 from drive_bridge.model import PdoConfig
 from drive_bridge.sim import SimDrive402, register_simulator, registry as sim_registry
 
@@ -45,8 +52,7 @@ class AcmeLibrary(DriveFamily):
     mappings are the generic 402 defaults); TPDOs have only sub-indices 1 and 2."""
 
     name = FAMILY
-    pdo_configuration = PdoConfiguration.SELECT_BY_NUMBER
-    pdo_comm_subindices = frozenset({1, 2})
+    pdo = PdoTraits(configuration=PdoConfiguration.SELECT_BY_NUMBER, comm_subindices=frozenset({1, 2}))
 
     def default_pdos(self, node_id: int, axes, synchronous: bool):  # type: ignore[no-untyped-def]
         return get_family('generic_402').default_pdos(node_id, axes, synchronous)

@@ -31,20 +31,34 @@ FACTOR = 3
 
 PLUGIN = textwrap.dedent('''
     """ACME servo drives: boot-up by EMCY 0xACB0, node guarding only, axis and severity in
-    the EMCY's manufacturer bytes (byte 3 = axis slot, byte 4 = 1 warning / 2 fault)."""
+    the EMCY's manufacturer bytes (byte 3 = axis slot, byte 4 = 1 warning / 2 fault); the boot
+    reads each drive's device type into the node's own part."""
     from drive_bridge.cia301.emcy import Severity
-    from drive_bridge.families import BootDetection, DriveFamily, Liveness, get_family
+    from drive_bridge.families import (AxisTraits, BootDetection, BootTraits, DriveFamily, FamilyNode, Liveness,
+                                       get_family)
     from drive_bridge.sim import SimDrive402, register_simulator
 
     BOOTUP = bytes.fromhex('b0ac000000000000')
     TEXTS = {0xFF10: 'ACME motor winding too hot', 0xFF20: 'ACME encoder signal weak'}
 
 
+    class AcmeNode(FamilyNode):
+        def __init__(self, family, config):
+            super().__init__(family, config)
+            self.device_type = None  # learned by the boot, of this node only
+
+        def boot_steps_before(self, node):
+            return (('ACME device type 0x1000', self._read_device_type),)
+
+        def _read_device_type(self, node):
+            self.device_type = node.sdo_read(0x1000, 0)
+
+
     class AcmeGuarded(DriveFamily):
         name = 'acme_guarded'
         description = 'ACME servo (test plugin)'
-        boot_detection = BootDetection.EMCY
-        max_axes = 2
+        boot = BootTraits(detection=BootDetection.EMCY)
+        axes = AxisTraits(max_count=2)
 
         def eds_for(self, axis_count):
             return get_family('generic_402').eds_for(axis_count)
@@ -57,6 +71,9 @@ PLUGIN = textwrap.dedent('''
 
         def is_bootup_emcy(self, data):
             return bytes(data) == BOOTUP
+
+        def node(self, config):
+            return AcmeNode(self, config)
 
         def decode_emcy(self, node_id, node_name, data, timestamp):
             event = super().decode_emcy(node_id, node_name, data, timestamp)
@@ -120,6 +137,8 @@ def test_boots_on_the_bootup_emcy_and_is_supervised_by_guarding(plugin: None) ->
         node = master.nodes['acme']
         drive = sim.drive(NODE)
         assert node.snapshot().liveness == 'node guarding'
+        assert node.family is get_family(FAMILY) and type(node.family_node).__name__ == 'AcmeNode'
+        assert node.family_node.device_type == drive.value(0x1000)  # type: ignore[attr-defined]
         assert not master.events or all(e.kind is not EventKind.BOOT_FAILED for e in master.events)
         assert drive.value(0x100C) == GUARD_MS and drive.value(0x100D) == FACTOR
         replies, started = drive.guard_replies, time.monotonic()

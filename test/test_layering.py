@@ -10,7 +10,7 @@ import-linter's graph library:
 - a family (a module under families/ outside the boundary's own) subclasses no core class but
   the documented extension points and error classes, and touches no core class's private
   members (today's exceptions, the SERVOSTAR and S120 axes, listed to shrink to zero); the
-  DriveFamily docstring's table names every hook;
+  DriveFamily and FamilyNode docstrings' tables name every hook;
 - the `ros -> sim` contract really catches the ROS layer reaching into a simulator submodule
   (checked on a scratch copy of the package).
 
@@ -19,6 +19,7 @@ Imports under ``if TYPE_CHECKING:`` are left out, as in .importlinter: they are 
 from __future__ import annotations
 
 import ast
+import importlib
 import inspect
 import re
 import shutil
@@ -256,6 +257,7 @@ def test_index_detector_misses(line: str) -> None:
 
 # Where a family extends the core (docs/families.md): these classes, and any error class.
 EXTENSION_POINTS = frozenset({'drive_bridge.families.interface.DriveFamily',
+                              'drive_bridge.families.node.FamilyNode',
                               'drive_bridge.families.parameters.ParameterAccess',
                               'drive_bridge.cia402.quirks.AxisQuirks'})
 # Exceptions: none since issue 23 (the SERVOSTAR and S120 hand the CiA 402 Axis their AxisQuirks
@@ -266,7 +268,8 @@ CORE_PRIVATES_USED: dict[str, frozenset[str]] = {}
 
 
 def test_families_subclass_only_extension_points() -> None:
-    """A family's classes subclass DriveFamily, ParameterAccess, error classes or none of the core."""
+    """A family's classes subclass DriveFamily, FamilyNode, AxisQuirks, ParameterAccess, error classes
+    or none of the core."""
     wrong, kept = [], set()
     for cls in family_classes():
         for base in cls.__bases__:
@@ -312,12 +315,13 @@ def test_private_use_finders() -> None:
     assert foreign_uses(tree, any_core_privates()) == {'_device_command', '_cond'}
 
 
-def test_drive_family_table_names_every_hook() -> None:
-    """The hook table of the DriveFamily docstring lists every public method."""
-    from drive_bridge.families import interface
-    hooks = [n for n, v in vars(interface.DriveFamily).items() if not n.startswith('_') and inspect.isfunction(v)]
-    missing = [h for h in hooks if f'``{h}``' not in (interface.__doc__ or '')]
-    assert not missing, f'hooks missing from the table in drive_bridge/families/interface.py: {missing}'
+@pytest.mark.parametrize('module, cls', [('interface', 'DriveFamily'), ('node', 'FamilyNode')])
+def test_drive_family_table_names_every_hook(module: str, cls: str) -> None:
+    """The hook table of the DriveFamily (FamilyNode) docstring lists every public method."""
+    mod = importlib.import_module(f'drive_bridge.families.{module}')
+    hooks = [n for n, v in vars(getattr(mod, cls)).items() if not n.startswith('_') and inspect.isfunction(v)]
+    missing = [h for h in hooks if f'``{h}``' not in (mod.__doc__ or '')]
+    assert not missing, f'hooks missing from the table in drive_bridge/families/{module}.py: {missing}'
 
 
 def test_axis_quirks_table_names_every_hook() -> None:

@@ -181,8 +181,8 @@ def test_the_loader_refuses_objects_the_drive_cannot_map() -> None:
 
 def test_family_hooks_without_a_bus() -> None:
     family = get_family('opendrive')
-    assert not family.has_cia402 and family.max_axes == 1 and not family.has_heartbeat
-    assert family.pdo_comm_subindices == frozenset({1, 2, 3, 5})
+    assert not family.axes.has_cia402 and family.axes.max_count == 1 and not family.boot.has_heartbeat
+    assert family.pdo.comm_subindices == frozenset({1, 2, 3, 5})
     assert family.accepted_modes == frozenset({3, 4})
     alarm = family.decode_emcy(NODE, 'opendrive', bytes.fromhex('00 10 03 08 00 00 00 00'), 0.0)  # §6.14
     assert (alarm.code, alarm.register, alarm.severity, alarm.is_reset) == (0x1000, 0x03, Severity.ERROR, False)
@@ -417,7 +417,7 @@ def test_a_representation_word_the_bridge_cannot_read_fails_the_boot() -> None:
             assert (index, subindex) == (0x2004, 0)
             return table
 
-    step = dict(family.boot_steps_before(Port()))['representation words 0x2003 / 0x2004']  # type: ignore[arg-type]
+    step = dict(family.node(config).boot_steps_before(Port()))['representation words 0x2003 / 0x2004']  # type: ignore[arg-type]
     with pytest.raises(Exception, match=r'actual_velocity 0x2012:01 \(tab_osc\[0\]\): representation word '
                                         r'0x0010 is not one the appendix shows'):
         step(Port())  # type: ignore[arg-type]

@@ -14,7 +14,7 @@ from drive_bridge.master.run_on import FRAMES_FRESH, RunOnStop
 
 def lost_node(**family: Any) -> Any:
     return SimpleNamespace(node_id=5, name='spindle', boot_state=BootState.LOST,
-                           family=SimpleNamespace(runs_on_without_master=True, **family),
+                           family=SimpleNamespace(boot=SimpleNamespace(runs_on_without_master=True), **family),
                            process=SimpleNamespace(input_stamps={0x185: time.time()}))
 
 

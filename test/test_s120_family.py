@@ -115,7 +115,7 @@ def test_the_example_loads_with_the_family_defaults() -> None:
     assert config.master.sync_period == 0.008
     shoulder, elbow = arm.axes
     assert (shoulder.mode, shoulder.position_mode, shoulder.velocity_mode, shoulder.effort_mode) == (3, 3, 3, 4)
-    assert shoulder.position_loop.enabled and shoulder.position_loop == SinamicsS120.default_position_loop
+    assert shoulder.position_loop.enabled and shoulder.position_loop == SinamicsS120.modes.default_position_loop
     assert elbow.drive == {'gear_ratio': 10.0, 'direction': -1} and elbow.slot == 1
     # the default map: two PDOs each way per drive object, type 1, COB-IDs of node 5 only
     assert [(p.number, p.cob_id, p.transmission) for p in arm.rpdo] == [

@@ -107,9 +107,9 @@ def test_the_example_loads_with_the_family_defaults() -> None:
         (3, [(0x2070, 2, 24), (0x6061, 0, 8), (0x6077, 0, 16)])]
     family = get_family('servostar')
     assert isinstance(family, Servostar)
-    assert family.liveness(x) is Liveness.GUARDING and family.boot_detection is BootDetection.EMCY
-    assert family.pdo_configuration is PdoConfiguration.SELECT_BY_NUMBER
-    assert family.pdo_comm_subindices == frozenset({1, 2, 3})
+    assert family.liveness(x) is Liveness.GUARDING and family.boot.detection is BootDetection.EMCY
+    assert family.pdo.configuration is PdoConfiguration.SELECT_BY_NUMBER
+    assert family.pdo.comm_subindices == frozenset({1, 2, 3})
     assert family.axis_objects(0).position_actual == (0x2070, 3)
     assert family.axis_objects(0).target_position == (0x2022, 4)
     assert family.streaming_strategy(-6, 0) == 'cyclic' and family.streaming_strategy(1, 0) is None

@@ -94,8 +94,8 @@ class OfflineBus:
             node = OfflineNode(node_cfg, family, timeout)
             self.nodes[node.node_id] = node
             for axis_cfg in node_cfg.axes:
-                self.axes[axis_cfg.joint] = family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
-                                                                       master.cycle_period)
+                self.axes[axis_cfg.joint] = node.family_node.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
+                                                                                 master.cycle_period)
             for cob_id in node.process.rx_layouts:
                 self._by_cob[cob_id] = self._tpdo_handler(node)
             for cob_id in node.rpdo_layouts:

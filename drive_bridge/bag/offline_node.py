@@ -20,6 +20,7 @@ class OfflineNode:
     def __init__(self, config: NodeConfig, family: DriveFamily, heartbeat_timeout: float) -> None:
         self.config = config
         self.family = family
+        self.family_node = family.node(config)  # its joint drivers, its EMCYs' meaning
         self.process = ProcessImage(config.od, config.rpdo, config.tpdo, family.sent_on_write)
         # RPDOs the master sent, decoded with the same layouts: the controlword actually sent
         self.rpdo_layouts: dict[int, PdoLayout] = {layout.cob_id: layout for layout in self.process.tx_layouts}
@@ -88,10 +89,10 @@ class OfflineNode:
             self.outputs.update(layout.unpack(data))
 
     def on_emcy(self, data: bytes, timestamp: float) -> EmcyEvent:
-        if self.family.boot_detection is BootDetection.EMCY and self.family.is_bootup_emcy(data) \
+        if self.family.boot.detection is BootDetection.EMCY and self.family.is_bootup_emcy(data) \
                 and not (self.state is NmtState.OPERATIONAL and self.family.bootup_emcy_is_ambiguous(data)):
             self.state = NmtState.PRE_OPERATIONAL
-        event = self.family.decode_emcy(self.node_id, self.name, data, timestamp)
+        event = self.family_node.decode_emcy(data, timestamp)
         self._emcy.append(event)
         return event
 

@@ -158,10 +158,10 @@ def identify(network: canopen.Network, node_id: int, device_type: int | None, ti
 def count_axes(node: canopen.RemoteNode, family: str) -> int:
     """CiA 402 axes whose statusword (0x6041 + 0x800 per slot) answers, up to the family's maximum."""
     drive = get_family(family)
-    if not drive.has_cia402:
-        return min(drive.max_axes, 1)
+    if not drive.axes.has_cia402:
+        return min(drive.axes.max_count, 1)
     axes = 0
-    for slot in range(max(drive.max_axes, 1)):
+    for slot in range(max(drive.axes.max_count, 1)):
         if _upload(node, obj.for_axis(obj.STATUSWORD, slot)) is None:
             break
         axes += 1

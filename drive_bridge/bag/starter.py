@@ -41,7 +41,7 @@ def needs_dcf(node: FoundNode) -> bool:
 def axis_section(node: FoundNode, slot: int) -> dict[str, Any]:
     joint = f'{node_name(node)}_axis_{slot}' if node.axes > 1 else f'{node_name(node)}_joint'
     section: dict[str, Any] = {'joint': joint, 'slot': slot}
-    if get_family(node.family).uses_axis_scaling:
+    if get_family(node.family).axes.uses_axis_scaling:
         section['scaling'] = {'counts_per_revolution': TODO}
     section['limits'] = {'min_position': TODO, 'max_position': TODO, 'max_velocity': TODO}
     return section

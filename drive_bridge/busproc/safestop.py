@@ -7,8 +7,8 @@ Per axis (its ``on_node_loss`` settings, ``model.NodeLossConfig``):
 2. the bridge waits until the axis is at rest (|velocity| below :data:`REST_VELOCITY` of its
    limit, or the drive has left operation by itself), at most the time its stop deceleration
    needs plus :data:`REST_MARGIN`. A drive that runs on by itself (its family's
-   ``runs_on_without_master``: once this process is gone nothing stops it) gets its family's
-   stop besides (``DriveFamily.stop_run_on``: by SDO every ``run_on.SDO_PERIOD``, while the
+   ``boot.runs_on_without_master``: once this process is gone nothing stops it) gets its family's
+   stop besides (``FamilyNode.stop_run_on``: by SDO every ``run_on.SDO_PERIOD``, while the
    joint driver's stop goes by PDO every cycle), and leaving operation is not the end for it:
    the bridge waits until the family reports the drive at rest, at most :data:`MAX_STOP_TIME`
    (it stops on its own ramp, which the bridge does not know);
@@ -20,7 +20,6 @@ leaves every axis disabled until a client enables it.
 """
 from __future__ import annotations
 
-import functools
 import logging
 import math
 import threading
@@ -39,13 +38,13 @@ REST_MARGIN = 1.0  # s beyond the computed stop time before the bridge disables 
 MAX_STOP_TIME = 10.0  # s: the longest a stop is waited for
 QUICK_STOP_TIMEOUT = 0.5  # s for the drive to show quick stop active
 
-FamilyStop = Callable[[bool], bool]  # DriveFamily.stop_run_on of one node: (by_sdo) -> at rest
+FamilyStop = Callable[[bool], bool]  # FamilyNode.stop_run_on of one node: (by_sdo) -> at rest
 
 
 def family_stops(nodes: Iterable[NodeRuntime]) -> dict[str, FamilyStop]:
-    """Per joint of a drive that runs on by itself (``runs_on_without_master``): its family's stop."""
-    return {axis.joint: functools.partial(node.family.stop_run_on, node.node_id)
-            for node in nodes if node.family.runs_on_without_master for axis in node.config.axes}
+    """Per joint of a drive that runs on by itself (``boot.runs_on_without_master``): its family's stop."""
+    return {axis.joint: node.family_node.stop_run_on
+            for node in nodes if node.family.boot.runs_on_without_master for axis in node.config.axes}
 
 
 def stop_all(axes: Mapping[str, JointDriver], executor: TrajectoryExecutor | None, reason: str,

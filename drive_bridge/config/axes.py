@@ -64,7 +64,7 @@ def _joint(issues: Issues, value: Any, loc: Loc) -> str | None:
 
 def _mode(sec: Section, key: str, family: DriveFamily) -> int:
     default, allowed = _MODE_KINDS[key]
-    default = family.default_modes.get(key, default)
+    default = family.modes.defaults.get(key, default)
     fallback = int(parse_mode(default))
     if key not in sec:
         return fallback
@@ -77,7 +77,7 @@ def _mode(sec: Section, key: str, family: DriveFamily) -> int:
                                        f'got {describe(raw)}')
         return fallback
     looped = key == 'position_mode' and code in VELOCITY_MODES and (
-        'position_loop' in sec or family.default_position_loop.enabled)
+        'position_loop' in sec or family.modes.default_position_loop.enabled)
     if allowed is not None and code >= 0 and code not in allowed and not looped:  # the loop makes pv/csv position modes
         names = ', '.join(mode_name(m) for m in sorted(allowed))
         kind = key.split('_')[0]
@@ -85,8 +85,8 @@ def _mode(sec: Section, key: str, family: DriveFamily) -> int:
         sec.issues.error(sec.loc(key), f'expected a {kind} mode ({names}) or a manufacturer mode (< 0), '
                                        f'got {shown}')
         return fallback
-    if family.accepted_modes is not None and code not in family.accepted_modes:
-        names = ', '.join(mode_name(m) for m in sorted(family.accepted_modes))
+    if family.modes.accepted is not None and code not in family.modes.accepted:
+        names = ', '.join(mode_name(m) for m in sorted(family.modes.accepted))
         sec.issues.error(sec.loc(key), f"family '{family.name}' does not accept mode {mode_name(code)} "
                                        f'(it takes {names}), got {describe(raw)}')
         return fallback
@@ -98,7 +98,7 @@ def _modes(sec: Section, family: DriveFamily) -> dict[str, Any]:
     axis of a family that takes its modes from the drive and names no position mode gets
     its mode picked at boot (``auto_mode``)."""
     modes: dict[str, Any] = {key: _mode(sec, key, family) for key in _MODE_KINDS}
-    if family.modes_from_drive and 'mode' not in sec and 'position_mode' not in sec:
+    if family.modes.from_drive and 'mode' not in sec and 'position_mode' not in sec:
         modes['auto_mode'] = ModeChoice()
     return modes
 
@@ -163,7 +163,7 @@ def _limits(sec: Section | None, todo: list[str]) -> AxisLimits:
 
 def _position_loop(sec: Section | None, family: DriveFamily) -> PositionLoopConfig:
     if sec is None:
-        return family.default_position_loop
+        return family.modes.default_position_loop
     sec.check_keys(keys.POSITION_LOOP)
     return PositionLoopConfig(gain=sec.get_number('gain', gt=0) or 0.0,
                               following_error=sec.get_number('following_error', gt=0))
@@ -195,13 +195,13 @@ def _homing(sec: Section | None) -> HomingConfig:
 
 def _interpolation(sec: Section, family: DriveFamily) -> int:
     """0x60C0 for interpolated position mode: 'linear' (0) or 'pvt' (the family's own code)."""
-    choice = sec.get_str('interpolation', family.default_interpolation, choices=('linear', 'pvt'))
+    choice = sec.get_str('interpolation', family.modes.default_interpolation, choices=('linear', 'pvt'))
     if choice == 'pvt':
-        if family.pvt_submode is None:
+        if family.modes.pvt_submode is None:
             sec.issues.error(sec.loc('interpolation'), f"family '{family.name}' has no PVT interpolation "
                                                        "sub-mode; use linear")
             return 0
-        return family.pvt_submode
+        return family.modes.pvt_submode
     return 0
 
 
@@ -216,7 +216,7 @@ def _axis(issues: Issues, value: Any, loc: Loc, position: int, file: str,
     joint_type: JointType = sec.get_str('type', 'revolute', choices=('revolute', 'prismatic'))  # type: ignore[assignment]
     modes = _modes(sec, family)
     todo: list[str] = []
-    if not family.uses_axis_scaling:  # the family's driver scales from its own `drive` settings
+    if not family.axes.uses_axis_scaling:  # the family's driver scales from its own `drive` settings
         if 'scaling' in sec:
             issues.error(sec.loc('scaling'), f"family '{family.name}' scales from the axis' `drive` settings; "
                                              'remove scaling')
@@ -300,7 +300,8 @@ def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str,
         if joint is None:
             continue
         axis = AxisConfig(joint=joint, slot=index, scaling=scaling, where=f'{file}: {where.path}',
-                          ip_submode=(family.pvt_submode or 0) if family.default_interpolation == 'pvt' else 0,
+                          ip_submode=((family.modes.pvt_submode or 0) if family.modes.default_interpolation == 'pvt'
+                                      else 0),
                           **modes)
         drafts.append(AxisDraft(axis, where, joint_loc, where))
     return drafts
@@ -309,7 +310,7 @@ def _ros_axes(node: Section, name: str, ros_defaults: bool, file: str,
 def _form_conflicts(node: Section, family: DriveFamily) -> bool:
     """Reports keys of the form a node does not use; True when the node may have axes."""
     ros_keys = [k for k in keys.ROS_AXIS_FORM if k in node]
-    if not family.max_axes:
+    if not family.axes.max_count:
         for key in (['axes'] if 'axes' in node else []) + ros_keys:
             if node.own(key):
                 node.issues.error(node.loc(key), f"family '{family.name}' has no CiA 402 axes; remove {key}")

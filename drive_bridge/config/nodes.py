@@ -175,6 +175,8 @@ def _pdos(ctx: NodeContext, node: Section, name: str, node_id: int, family: Driv
             if od is not None and not explicit:
                 plan = family.plan_pdos(node_id, [d.axis for d in axes], synchronous, od)
                 rpdos, tpdos = plan.rpdos, plan.tpdos
+            elif od is not None:  # the config gives one kind: the family's map of the other, for this EDS
+                rpdos, tpdos = family.default_pdos_for_eds(node_id, [d.axis for d in axes], synchronous, od)
             else:
                 rpdos, tpdos = family.default_pdos(node_id, [d.axis for d in axes], synchronous)
             defaults = {'rpdo': rpdos, 'tpdo': tpdos}
@@ -214,10 +216,10 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
         return draft
     draft.axes = parse_axes(node, name, family, ros_defaults, ctx.file)
     explicit_pdos = 'rpdo' in node and 'tpdo' in node
-    too_many = len(draft.axes) > family.max_axes
+    too_many = len(draft.axes) > family.axes.max_count
     if too_many and not explicit_pdos:
         issues.error(_axes_loc(node), f"{len(draft.axes)} axes, but family '{family.name}' drives at most "
-                                      f'{family.max_axes} with its default PDO map; give explicit rpdo and tpdo '
+                                      f'{family.axes.max_count} with its default PDO map; give explicit rpdo and tpdo '
                                       f'for up to {obj.MAX_AXES}')
     eds_path, eds_loc = _eds_path(ctx, node, family, len(draft.axes))
     od = _load_od(ctx, eds_path, eds_loc, node_id or 1) if eds_path is not None else None
@@ -228,11 +230,11 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     sdo_items = node.get_list('sdo', 'a list of {index, sub_index, value}') or []
     boot_sdo = parse_boot_sdo(issues, sdo_items, od, eds_name, ctx.file)
     identity = Identity(**{key: node.get_int(key, lo=0, hi=0xFFFFFFFF, allow_str=True) for key in keys.IDENTITY})
-    supervision = parse_supervision(node, name, family.name, family.has_heartbeat)
+    supervision = parse_supervision(node, name, family.name, family.boot.has_heartbeat)
     if od is not None:
         supervision = fit_supervision(node, od, eds_name, supervision)
     consumer = _heartbeats(ctx, node, supervision)
-    reset = node.get_bool('reset_communication', family.nmt_reset_communication)
+    reset = node.get_bool('reset_communication', family.boot.nmt_reset_communication)
     timeouts = _timeouts(node)
     plan = None
     if node_id is not None:
@@ -245,7 +247,7 @@ def parse_node(ctx: NodeContext, name: str, value: Any) -> NodeDraft | None:
     axes_fit = False
     if not (too_many and not explicit_pdos):
         axes_fit = all([check_axis_objects(issues, od, eds_name, axis, family) for axis in draft.axes]) \
-            if family.has_cia402 else True
+            if family.axes.has_cia402 else True
     draft.pdos = [resolve_pdo(issues, od, eds_name, p) if axes_fit or not p.from_family else p
                   for p in draft.pdos]
     pdo_loc = next((node.loc(k) for k in ('rpdo', 'tpdo') if k in node), node.where)

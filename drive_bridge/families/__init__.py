@@ -3,13 +3,8 @@ cannot say; the one boundary the core talks to. Look families up by name with
 :func:`get_family`; add one with :func:`register_family` or the ``drive_bridge.families``
 entry point group."""
 from drive_bridge.families.errors import FamilyError
-from drive_bridge.families.interface import (
-    BootDetection,
-    DriveFamily,
-    IdentityMatch,
-    Liveness,
-    PdoConfiguration,
-)
+from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness
+from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.registry import (
     ENTRY_POINT_GROUP,
     discover_families,
@@ -18,6 +13,14 @@ from drive_bridge.families.registry import (
     get_family,
     register_family,
     unregister_family,
+)
+from drive_bridge.families.traits import (
+    AxisTraits,
+    BootDetection,
+    BootTraits,
+    ModeTraits,
+    PdoConfiguration,
+    PdoTraits,
 )
 
 # isort: split
@@ -31,6 +34,7 @@ from drive_bridge.families import (
                                              servostar as _servostar,  # noqa: F401
 )
 
-__all__ = ['ENTRY_POINT_GROUP', 'BootDetection', 'DriveFamily', 'FamilyError', 'IdentityMatch',
-           'Liveness', 'PdoConfiguration', 'discover_families', 'families_for_identity', 'family_names', 'get_family',
-           'register_family', 'unregister_family']
+__all__ = ['ENTRY_POINT_GROUP', 'AxisTraits', 'BootDetection', 'BootTraits', 'DriveFamily', 'FamilyError',
+           'FamilyNode', 'IdentityMatch', 'Liveness', 'ModeTraits', 'PdoConfiguration', 'PdoTraits',
+           'discover_families', 'families_for_identity', 'family_names', 'get_family', 'register_family',
+           'unregister_family']

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from drive_bridge.families.interface import DriveFamily, IdentityMatch
 from drive_bridge.families.registry import register_family
+from drive_bridge.families.traits import AxisTraits
 from drive_bridge.model import Identity
 
 
@@ -12,8 +13,7 @@ class Generic301(DriveFamily):
 
     name = 'generic_301'
     description = 'CiA 301 node without a drive profile (needs an EDS in the config)'
-    has_cia402 = False
-    max_axes = 0
+    axes = AxisTraits(has_cia402=False, max_count=0)
 
     def identity_match(self, identity: Identity, device_name: str) -> IdentityMatch:
         """Any CANopen node: the fallback when no family knows it."""

@@ -5,27 +5,31 @@ and everything a drive line does differently. Every hook has a default that is p
 301/402; a family overrides only what its manual says differs. The master, the CiA 402 driver,
 streaming and the ROS layer ask the family and never test a vendor name.
 
-| question                         | hook                                                   |
+| question                         | hook or trait (module ``traits``)                      |
 |----------------------------------|--------------------------------------------------------|
-| how does boot-up show?           | ``boot_detection``, ``is_bootup_emcy``,                |
-|                                  | ``bootup_emcy_is_ambiguous``, ``nmt_reset_communication`` |
-| extra boot steps                 | ``boot_steps_early``, ``boot_steps_before``,           |
-|                                  | ``boot_steps_after``                                   |
-| how is the node supervised?      | ``liveness``                                           |
-| how are PDOs configured?         | ``pdo_configuration``, ``pdo_comm_subindices``, ``select_pdo``, ``sent_on_write`` |
+| how does boot-up show?           | ``boot`` (detection, NMT reset communication),         |
+|                                  | ``is_bootup_emcy``, ``bootup_emcy_is_ambiguous``       |
+| how is the node supervised?      | ``liveness``, ``boot`` (has_heartbeat)                 |
+| how are PDOs configured?         | ``pdo`` (configuration, comm_subindices), ``select_pdo``, ``sent_on_write`` |
 | which objects carry the values?  | ``axis_objects``                                       |
 | what does an EMCY mean?          | ``decode_emcy``, ``is_stream_fault``                   |
-| which modes, streamed how?       | ``accepted_modes``, ``default_modes``, ``streaming_strategy``, ``pvt_record`` |
-| what is a fault, how is it reset?| ``fault_model``                                        |
-| which joint driver?              | ``create_joint_driver``                                |
-| vendor parameters?               | ``parameters``                                         |
+| which modes, streamed how?       | ``modes`` (``accepted_modes``, ``pvt_submode``),       |
+|                                  | ``streaming_strategy``, ``pvt_record``                 |
+| what is a fault, how is it reset?| ``axes`` (``fault_model``)                             |
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
 | which writes decide the reaction | ``safety_object`` (and ``ParameterAccess.safety``),    |
-| to a lost master or the link?    | ``runs_on_without_master``, ``stop_run_on``            |
-| defaults for the config          | ``eds_for``, ``default_pdos``, ``plan_pdos``, ``max_axes`` |
+| to a lost master or the link?    | ``boot`` (runs_on_without_master)                      |
+| defaults for the config          | ``eds_for``, ``default_pdos``, ``default_pdos_for_eds``, ``plan_pdos``, |
+|                                  | ``axes`` (max_count)                                   |
 | what the EDS and PDOs cannot say | ``prepare_object_dictionary``, ``check_pdos``          |
 | the axis' own ``drive`` settings | ``parse_axis_options``                                 |
 | is this scanned node one of mine?| ``identity_match``, ``vendor_name``                    |
+| one node at run time             | ``node``: its :class:`~drive_bridge.families.node.FamilyNode` |
+
+The family holds no state: :func:`~drive_bridge.families.get_family` gives one object per family
+for the configuration, a scan and every node. What is learned of one node (boot steps, the joint
+drivers, vendor parameters, the stop of a drive that runs on) is the per-node part's,
+:class:`~drive_bridge.families.node.FamilyNode`, made once per node by ``node``.
 """
 from __future__ import annotations
 
@@ -34,7 +38,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum, IntEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import canopen
 from canopen import ObjectDictionary
@@ -42,15 +46,16 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
 from drive_bridge.cia301.vendors import vendor_name as cia301_vendor_name
 from drive_bridge.cia402 import objects as obj
-from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
-from drive_bridge.families.ports import BootStep, NodePort
-from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.families.node import FamilyNode
+from drive_bridge.families.traits import (
+    AxisTraits,
+    BootTraits,
+    ModeTraits,
+    PdoTraits,
+)
 from drive_bridge.joint.strategy import StreamStrategy
-from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
-
-if TYPE_CHECKING:
-    from drive_bridge.families.parameters import ParameterAccess, ParameterPort
+from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig
 
 STORE_PARAMETERS = 0x1010  # CiA 301: store parameters ("save")
 # objects that decide how a node reacts to the loss of its master or that change its link
@@ -67,27 +72,12 @@ SAFETY_OBJECTS: Mapping[int, str] = {
 RESTORE_DEFAULT_PARAMETERS = 0x1011  # CiA 301: restore default parameters ("load")
 
 
-class BootDetection(str, Enum):
-    """How a node announces that it (re)booted."""
-
-    BOOTUP_FRAME = 'bootup frame'  # CiA 301: 0x700 + id with one zero byte
-    EMCY = 'emcy'  # an EMCY the family recognises (``is_bootup_emcy``)
-    PROBE = 'probe'  # no announcement: an SDO read of 0x1000 answers once it is up
-
-
 class Liveness(str, Enum):
     """How the master watches a node; never both on one node."""
 
     HEARTBEAT = 'heartbeat'
     GUARDING = 'node guarding'
     NONE = 'none'
-
-
-class PdoConfiguration(str, Enum):
-    """How the master sets a node's PDOs at boot."""
-
-    FREE_MAPPING = 'free mapping'  # write 0x1400../0x1600.. / 0x1800../0x1A00.. (CiA 301)
-    SELECT_BY_NUMBER = 'select by number'  # the family's ``select_pdo`` picks a predefined PDO
 
 
 @dataclass(frozen=True)
@@ -170,31 +160,32 @@ class DriveFamily:
     name: ClassVar[str] = ''
     description: ClassVar[str] = ''
     default_eds: ClassVar[Path | None] = None  # shipped EDS used when the config names none
-    has_cia402: ClassVar[bool] = True  # axes are CiA 402 axes (else the family brings its driver)
-    max_axes: ClassVar[int] = 1
     emcy_texts: ClassVar[Mapping[int, str]] = {}  # family-specific EMCY code texts
-    pvt_submode: ClassVar[int | None] = None  # 0x60C0 code of the family's PVT interpolation, if any
-    default_interpolation: ClassVar[str] = 'linear'  # 'linear' or 'pvt', for axes that do not say
-    interpolation_fault_codes: ClassVar[frozenset[int]] = frozenset()  # EMCY: buffer underflow/overflow
-    accepted_modes: ClassVar[frozenset[int] | None] = None  # the modes it takes, when 0x6502 says otherwise
-    # an axis that names no mode gets the best streaming mode the drive's 0x6502 has (at boot)
-    modes_from_drive: ClassVar[bool] = False
-    # default of the axis keys mode / position_mode / velocity_mode / effort_mode, where they
-    # differ from csp / csp / csv / cst
-    default_modes: ClassVar[Mapping[str, str]] = {}
-    boot_detection: ClassVar[BootDetection] = BootDetection.BOOTUP_FRAME
-    # the node knows NMT reset communication (0x82); False: a node's `reset_communication`
-    # defaults to false, and the master finds it by its boot-up announcement or an SDO probe
-    nmt_reset_communication: ClassVar[bool] = True
-    has_heartbeat: ClassVar[bool] = True  # False: the node must be guarded (config guard_time_ms)
-    uses_axis_scaling: ClassVar[bool] = True  # False: the driver scales from the axis' `drive` settings
-    # the position loop of axes that give no `position_loop` (e.g. a velocity-only drive line)
-    default_position_loop: ClassVar[PositionLoopConfig] = PositionLoopConfig()
-    pdo_configuration: ClassVar[PdoConfiguration] = PdoConfiguration.FREE_MAPPING
-    # communication-parameter sub-indices the node has (CiA 301: 1 COB-ID, 2 type, 3 inhibit,
-    # 5 event timer, 6 SYNC start); the master writes only these
-    pdo_comm_subindices: ClassVar[frozenset[int]] = frozenset({1, 2, 3, 5, 6})
-    fault_model: ClassVar[FaultModel] = FaultModel()
+    # vendor objects that decide the reaction to a lost master or change the link: index -> what
+    vendor_safety_objects: ClassVar[Mapping[int, str]] = {}
+    # the traits (module traits): set the records whose CiA 301/402 defaults do not fit
+    boot: ClassVar[BootTraits] = BootTraits()
+    pdo: ClassVar[PdoTraits] = PdoTraits()
+    modes: ClassVar[ModeTraits] = ModeTraits()
+    axes: ClassVar[AxisTraits] = AxisTraits()
+
+    # -- the CiA 402 profile's answers (cia402.profile.Cia402Profile), from the traits ----------
+    @property
+    def accepted_modes(self) -> frozenset[int] | None:
+        return self.modes.accepted
+
+    @property
+    def pvt_submode(self) -> int | None:
+        return self.modes.pvt_submode
+
+    @property
+    def fault_model(self) -> FaultModel:
+        return self.axes.fault_model
+
+    def node(self, config: NodeConfig) -> FamilyNode:
+        """The per-node part of one configured node (made once per node, at run time); plain
+        CiA 301/402 by default. A family that learns something per node returns its own."""
+        return FamilyNode(self, config)
 
     # -- configuration defaults ------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -206,11 +197,17 @@ class DriveFamily:
         """(RPDOs, TPDOs) used when the config gives no mapping."""
         return (), ()
 
+    def default_pdos_for_eds(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                             od: ObjectDictionary) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        """The family's fixed map as the node's loaded (and prepared) EDS ``od`` allows it, e.g.
+        without the objects it lacks or will not map; by default ``default_pdos``."""
+        return self.default_pdos(node_id, axes, synchronous)
+
     def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
                   od: ObjectDictionary) -> PdoPlan:
         """The default process data of a node whose config gives no mapping, for its EDS
-        ``od``; by default the family's fixed map (``default_pdos``)."""
-        rpdos, tpdos = self.default_pdos(node_id, axes, synchronous)
+        ``od``; by default the family's fixed map (``default_pdos_for_eds``)."""
+        rpdos, tpdos = self.default_pdos_for_eds(node_id, axes, synchronous, od)
         return PdoPlan(rpdos, tpdos, tuple(axes))
 
     def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:
@@ -234,7 +231,7 @@ class DriveFamily:
 
     # -- scan ----------------------------------------------------------------------------------
     def _shipped_identities(self) -> list[EdsIdentity]:
-        paths = {p for p in (self.eds_for(n) for n in range(1, max(self.max_axes, 1) + 1)) if p is not None}
+        paths = {p for p in (self.eds_for(n) for n in range(1, max(self.axes.max_count, 1) + 1)) if p is not None}
         return [eds_identity(p) for p in sorted(paths)]
 
     def identity_match(self, identity: Identity, device_name: str) -> IdentityMatch:
@@ -252,28 +249,15 @@ class DriveFamily:
 
     # -- boot --------------------------------------------------------------------------------
     def is_bootup_emcy(self, data: bytes) -> bool:
-        """With ``BootDetection.EMCY``: this EMCY payload is the node's boot-up announcement."""
+        """With ``boot.detection`` EMCY: this EMCY payload is the node's boot-up announcement."""
         return False
 
     def bootup_emcy_is_ambiguous(self, data: bytes) -> bool:
-        """With ``BootDetection.EMCY``: this boot-up payload can also be an ordinary EMCY (e.g.
+        """With ``boot.detection`` EMCY: this boot-up payload can also be an ordinary EMCY (e.g.
         eight zero bytes, which also read as "no error"). From a node the master has running,
         such a frame counts as a reboot only once the node's next reported NMT state (guarding
         reply or heartbeat) is not operational."""
         return False
-
-    def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:
-        """Steps right after boot-up, before the first SDO (identity): e.g. an NMT command a
-        node needs before it answers SDO at all."""
-        return ()
-
-    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        """Steps after boot-up and identity, before the configured boot SDOs."""
-        return ()
-
-    def boot_steps_after(self, node: NodePort) -> Sequence[BootStep]:
-        """Steps after PDOs and supervision are configured, before NMT start."""
-        return ()
 
     def liveness(self, config: NodeConfig) -> Liveness:
         """How this node is supervised: heartbeat when it produces one, else node guarding
@@ -286,7 +270,7 @@ class DriveFamily:
 
     # -- PDOs --------------------------------------------------------------------------------
     def select_pdo(self, kind: str, config: PdoConfig) -> Sequence[tuple[int, int, int]] | None:
-        """With ``PdoConfiguration.SELECT_BY_NUMBER``: the SDO writes (index, subindex, value)
+        """With ``pdo.configuration`` SELECT_BY_NUMBER: the SDO writes (index, subindex, value)
         choosing the predefined PDO that ``config`` describes (kind 'RPDO' or 'TPDO'); None
         maps this PDO freely instead (a drive's free PDOs)."""
         raise NotImplementedError(f'family {self.name!r} selects no predefined PDOs')
@@ -303,17 +287,11 @@ class DriveFamily:
 
     def streaming_strategy(self, mode: int, ip_submode: int) -> StreamStrategy | None:
         """How trajectories are streamed in ``mode`` (None: the mode takes no trajectory)."""
-        return standard_strategy(mode, ip_submode, self.pvt_submode)
+        return standard_strategy(mode, ip_submode, self.modes.pvt_submode)
 
     def pvt_record(self, slot: int) -> PvtRecord | None:
         """Where PVT points go (None: the family has no PVT)."""
         return None
-
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
-        """The driver of one axis: the CiA 402 axis (given the family's ``AxisQuirks`` where its drive
-        differs) unless the family brings its own."""
-        return Axis(node, axis, timeouts, cycle_period, profile=self)
 
     # -- EMCY ----------------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
@@ -322,13 +300,9 @@ class DriveFamily:
 
     def is_stream_fault(self, event: EmcyEvent) -> bool:
         """The EMCY reports an interpolation buffer underflow or overflow (aborts a stream)."""
-        return event.code in self.interpolation_fault_codes
+        return event.code in self.modes.interpolation_fault_codes
 
-    # -- vendor parameters ---------------------------------------------------------------------
-    def parameters(self, port: ParameterPort) -> ParameterAccess | None:
-        """Access to the drive's own parameters by their vendor names (None: not offered)."""
-        return None
-
+    # -- access ----------------------------------------------------------------------------------
     def safety_object(self, config: NodeConfig | None, index: int, subindex: int) -> str | None:
         """What this object decides when it is one of those that set how the drive reacts to the
         loss of its master or that change its communication (node id, bit rate, SYNC, guarding,
@@ -337,18 +311,6 @@ class DriveFamily:
         a family adds its vendor objects (``vendor_safety_objects``)."""
         base = index if index < 0x6000 else 0x6000 + (index - 0x6000) % obj.AXIS_OFFSET
         return SAFETY_OBJECTS.get(base) or self.vendor_safety_objects.get(index)
-
-    # vendor objects that decide the reaction to a lost master or change the link: index -> what
-    vendor_safety_objects: ClassVar[Mapping[int, str]] = {}
-    # the drive keeps its last references when its master goes silent (no heartbeat consumer,
-    # no RPDO timeout, no action on a guarding loss): the bridge must stop it itself
-    runs_on_without_master: ClassVar[bool] = False
-
-    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
-        """A drive that runs on by itself (``runs_on_without_master``) whose master liveness is
-        lost while it still sends: put its stop into this cycle's process data (``by_sdo``: write it
-        by SDO too, supervisor thread); True once the drive reports it is at rest."""
-        return True
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """An SDO write of this object stores the node's parameters in non-volatile memory or

@@ -5,20 +5,28 @@ an integrator adds a family without editing this package::
     # pyproject.toml of the integrator's package
     [project.entry-points."drive_bridge.families"]
     my_drive = "my_package.family:MyDrive"
+
+A family is a stateless description: :func:`get_family` makes one object per family name and
+gives it to every caller in the process (the configuration, a scan, the master, the decoders);
+what is learned of one node lives in the per-node part the family makes (``DriveFamily.node``).
 """
 from __future__ import annotations
 
 import logging
+import threading
 from importlib.metadata import entry_points
 
 from drive_bridge.families.errors import FamilyError
 from drive_bridge.families.interface import DriveFamily, IdentityMatch
+from drive_bridge.families.traits import FLAT_TRAITS
 from drive_bridge.model import Identity
 
 ENTRY_POINT_GROUP = 'drive_bridge.families'
 log = logging.getLogger('drive_bridge.families')
 
 _REGISTRY: dict[str, type[DriveFamily]] = {}
+_INSTANCES: dict[str, DriveFamily] = {}  # name -> the one object of the registered class
+_instances_lock = threading.Lock()
 _entry_points_loaded = False
 
 
@@ -28,13 +36,20 @@ def register_family(cls: type[DriveFamily]) -> type[DriveFamily]:
         raise FamilyError(f'{cls!r} is not a DriveFamily subclass')
     if not cls.name:
         raise FamilyError(f'{cls.__name__} has no name')
+    flat = sorted({name for k in cls.__mro__ if issubclass(k, DriveFamily) and k is not DriveFamily
+                   for name in vars(k) if name in FLAT_TRAITS})
+    if flat:
+        moved = '; '.join(f'{name}: set {FLAT_TRAITS[name]} instead' for name in flat)
+        raise FamilyError(f'{cls.__name__} sets {moved} (the traits are records: drive_bridge.families.traits)')
     _REGISTRY[cls.name] = cls
+    _INSTANCES.pop(cls.name, None)
     return cls
 
 
 def unregister_family(name: str) -> None:
     """Remove a family (tests that register one of their own clean up with this)."""
     _REGISTRY.pop(name, None)
+    _INSTANCES.pop(name, None)
 
 
 def discover_families() -> list[str]:
@@ -64,13 +79,18 @@ def _load_entry_points() -> None:
 
 
 def get_family(name: str) -> DriveFamily:
-    """The family registered as ``name``; FamilyError lists the known ones."""
+    """The family registered as ``name``, the same object on every call; FamilyError lists the
+    known ones."""
     if name not in _REGISTRY:
         _load_entry_points()
-    try:
-        return _REGISTRY[name]()
-    except KeyError:
-        raise FamilyError(f'unknown drive family {name!r}; known: {", ".join(family_names())}') from None
+    cls = _REGISTRY.get(name)
+    if cls is None:
+        raise FamilyError(f'unknown drive family {name!r}; known: {", ".join(family_names())}')
+    with _instances_lock:
+        family = _INSTANCES.get(name)
+        if family is None or type(family) is not cls:  # none yet, or the name was registered again
+            family = _INSTANCES[name] = cls()
+    return family
 
 
 def family_names() -> list[str]:

@@ -74,7 +74,7 @@ def _has(node: NodeRuntime, index: int, subindex: int = 0) -> bool:
 
 
 def _announcement(node: NodeRuntime) -> str:
-    detection = node.family.boot_detection
+    detection = node.family.boot.detection
     if detection is BootDetection.EMCY:
         return f'boot-up EMCY (COB-ID 0x{0x80 + node.node_id:03X})'
     if detection is BootDetection.PROBE:
@@ -100,7 +100,7 @@ def wait_for_bootup(node: NodeRuntime) -> None:
     which: boot-up frame, an EMCY, or none, then an SDO probe); without a reset, for the
     announcement, a heartbeat, or (no heartbeat) an answer to an SDO probe."""
     timeout = node.config.timeouts.boot
-    detection = node.family.boot_detection
+    detection = node.family.boot.detection
     node.restart_guarding()
     if node.config.reset_communication:
         node.bootup_seen.clear()
@@ -155,7 +155,7 @@ def run_boot_sdos(node: NodeRuntime) -> None:
 def _write_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str) -> None:
     """Free mapping through canopen's PdoMap (communication and mapping parameters); only
     the communication sub-indices the family says the node has are written."""
-    subs = node.family.pdo_comm_subindices
+    subs = node.family.pdo.comm_subindices
     pdo_map.clear()
     pdo_map.cob_id = config.cob_id
     pdo_map.trans_type = config.transmission
@@ -183,7 +183,7 @@ def _select_pdo(node: NodeRuntime, pdo_map: PdoMap, config: PdoConfig, kind: str
         return
     for index, subindex, value in selection:
         node.sdo.write(index, subindex, value)
-    subs = node.family.pdo_comm_subindices
+    subs = node.family.pdo.comm_subindices
     cob_id = config.cob_id | (0 if config.enabled else COB_ID_INVALID)
     writes = [(1, cob_id), (2, config.transmission)]
     if kind == 'TPDO':
@@ -207,7 +207,7 @@ def _write_by_sdo(node: NodeRuntime, config: PdoConfig, kind: str, comm_index: i
         node.sdo.write(comm_index, 1, config.cob_id | COB_ID_INVALID)
     writes = [(2, config.transmission)] + ([(5, config.event_timer)] if kind == 'TPDO' else [])
     for subindex, value in writes:
-        if subindex in node.family.pdo_comm_subindices and _writable(node, comm_index, subindex):
+        if subindex in node.family.pdo.comm_subindices and _writable(node, comm_index, subindex):
             node.sdo.write(comm_index, subindex, value)
     if _writable(node, map_index, 1):
         node.sdo.write(map_index, 0, 0)
@@ -234,7 +234,7 @@ def configure_pdos(node: NodeRuntime) -> None:
                 comm_index = comm_base + config.number - 1
                 if not _writable(node, comm_index, 1) or not _writable(node, comm_index + 0x200, 1):
                     _write_by_sdo(node, config, kind, comm_index)
-                elif node.family.pdo_configuration is PdoConfiguration.SELECT_BY_NUMBER:
+                elif node.family.pdo.configuration is PdoConfiguration.SELECT_BY_NUMBER:
                     _select_pdo(node, pdo_map, config, kind, comm_base + config.number - 1)
                 else:
                     _write_pdo(node, pdo_map, config, kind)
@@ -333,7 +333,7 @@ def configure_guarding(node: NodeRuntime) -> None:
 
 def boot_node(node: NodeRuntime, master: MasterConfig, progress: Callable[[str], None]) -> None:
     """The whole boot of one node; raises BootError at the first failing step."""
-    family = node.family
+    family = node.family_node
     steps: tuple[tuple[str, Callable[[], None]], ...] = (
              ('boot-up', lambda: wait_for_bootup(node)),
              *(_family_step(node, step) for step in family.boot_steps_early(node)),

@@ -177,8 +177,8 @@ class Master:
             node.sync_count = self._sync_count
             node.on_setpoint_refused = functools.partial(self._setpoint_refused, node)
             for axis_cfg in node_cfg.axes:
-                self.axes[axis_cfg.joint] = node.family.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
-                                                                            cfg.master.cycle_period)
+                self.axes[axis_cfg.joint] = node.family_node.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
+                                                                                 cfg.master.cycle_period)
         self.feedback.watch(self.network, self.nodes.values())
         self.unknown_frames.active = True
         self._start_cycle()
@@ -278,7 +278,7 @@ class Master:
         now = self.sync.scheduled_time if self.sync is not None else time.time()
         for node in self.nodes.values():
             if self._run_on.due(node):  # a drive that runs on by itself, lost while it sends: its stop
-                if node.family.stop_run_on(node.node_id, by_sdo=False):
+                if node.family_node.stop_run_on(by_sdo=False):
                     self._run_on.at_rest(node)
                 for cob_id, data in node.process.frames():
                     self.network.send_message(cob_id, data)
@@ -403,7 +403,7 @@ class Master:
         with self._adhoc_lock:
             access = self._parameters.get(node_id)
             if access is None:
-                access = node.family.parameters(node)
+                access = node.family_node.parameters(node)
                 if access is None:
                     raise ParameterError(f'node {node_id} ({node.name}): drive family {node.family.name!r} '
                                          'offers no access to vendor parameters; use sdo_read/sdo_write',

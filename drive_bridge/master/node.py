@@ -70,7 +70,8 @@ class NodeRuntime:
     def __init__(self, network: canopen.Network, config: NodeConfig, master: MasterConfig,
                  on_emcy: Callable[[EmcyEvent, bool], None], on_error: Callable[[str], None]) -> None:
         self.config = config
-        self.family = get_family(config.family)
+        self.family = get_family(config.family)  # the description, one object per family
+        self.family_node = self.family.node(config)  # what the family learns of this node
         self.network = network
         self.remote = canopen.RemoteNode(config.node_id, config.od)
         network.add_node(self.remote)
@@ -113,7 +114,7 @@ class NodeRuntime:
         # EMCY is decoded here (canopen's consumer drops frames shorter than 8 bytes)
         network.unsubscribe(0x80 + config.node_id, self.remote.emcy.on_emcy)
         network.subscribe(0x80 + config.node_id, self._on_emcy_frame)
-        if self.liveness is Liveness.HEARTBEAT or self.family.boot_detection is BootDetection.BOOTUP_FRAME:
+        if self.liveness is Liveness.HEARTBEAT or self.family.boot.detection is BootDetection.BOOTUP_FRAME:
             self.remote.nmt.add_heartbeat_callback(self._on_heartbeat)
 
     @property
@@ -173,14 +174,14 @@ class NodeRuntime:
 
     def _on_emcy_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
         payload = bytes(data)
-        if self.family.boot_detection is BootDetection.EMCY and self.family.is_bootup_emcy(payload):
+        if self.family.boot.detection is BootDetection.EMCY and self.family.is_bootup_emcy(payload):
             if self.boot_state in (BootState.OPERATIONAL, BootState.LOST) and \
                     self.family.bootup_emcy_is_ambiguous(payload):
                 self.bootup_suspected = time.monotonic()  # the next NMT state it reports tells
             else:
                 self.bootup_seen.set()
                 self.nmt_state = NmtState.PRE_OPERATIONAL
-        event = self.family.decode_emcy(self.node_id, self.name, payload, timestamp)
+        event = self.family_node.decode_emcy(payload, timestamp)
         self._emcy.append(event)
         limit = self.emcy_limit
         reported = limit.allow(time.monotonic())

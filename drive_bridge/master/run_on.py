@@ -1,4 +1,4 @@
-"""Stopping a drive that runs on by itself (its family's ``runs_on_without_master``) once the
+"""Stopping a drive that runs on by itself (its family's ``boot.runs_on_without_master``) once the
 bridge has lost its liveness (heartbeat or guarding) while its frames still arrive: such a drive
 keeps its last references, so the bridge keeps sending its family's stop, by PDO every cycle and
 by SDO every ``SDO_PERIOD``, until the drive reports it is at rest or its frames stop (gone),
@@ -41,7 +41,7 @@ class RunOnStop:
 
     def due(self, node: NodeRuntime) -> bool:
         """The node's stop goes out this cycle (cycle thread): lost, running on, still sending."""
-        if not node.family.runs_on_without_master or node.boot_state is not BootState.LOST:
+        if not node.family.boot.runs_on_without_master or node.boot_state is not BootState.LOST:
             self._finish(node, '')
             self._done.discard(node.node_id)
             self._gone.discard(node.node_id)

@@ -98,7 +98,7 @@ class Supervisor:
                     self._check_freshness(node, now)
                     if self._run_on.sdo_due(node):
                         try:
-                            node.family.stop_run_on(node.node_id, by_sdo=True)
+                            node.family_node.stop_run_on(by_sdo=True)
                         except DriveBridgeError as exc:
                             self._run_on.sdo_failed(node, exc)
                     if node.boot_state in (BootState.WAITING, BootState.FAILED) and now >= node.next_boot_time:

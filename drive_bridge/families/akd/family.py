@@ -51,8 +51,10 @@ from drive_bridge.families.akd.parameters import (
     AkdParameters,
 )
 from drive_bridge.families.interface import DriveFamily
+from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.registry import register_family
+from drive_bridge.families.traits import ModeTraits
 from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
 from drive_bridge.resources import family_data
 
@@ -243,6 +245,14 @@ def _entry(index: int, bits: int, subindex: int = 0) -> PdoEntry:
     return PdoEntry(index, subindex, bits)
 
 
+class AkdNode(FamilyNode):
+    """One AKD at run time: the CiA 402 axis, and its ASCII parameters."""
+
+    def parameters(self, port: ParameterPort) -> AkdParameters:
+        """ASCII parameters (DRV.ACC, FBUS.PARAM04, ...) over the ASCII channel 0x2026."""
+        return AkdParameters(port)
+
+
 @register_family
 class Akd(DriveFamily):
     """Kollmorgen AKD (CANopen built in), one axis per node."""
@@ -254,16 +264,14 @@ class Akd(DriveFamily):
         0x36E8: 'FBUS.PARAM04, SYNC supervision (F125 after 3 missing SYNCs)',
     }
     default_eds = family_data('akd', 'akd.eds')
-    has_cia402 = True
-    max_axes = 1
     emcy_texts = AKD_EMCY_TEXTS
-    pvt_submode = PVT_SUBMODE
-    default_interpolation = 'pvt'
-    interpolation_fault_codes = frozenset({EMCY_PVT_OVERFLOW, EMCY_PVT_UNDERFLOW})
     # 0x6502 = 0x65 (pp, pv, hm, ip) but 0x6060 accepts 4 and 8 too (akd.md §10.9); no csv/cst
-    default_modes = {'mode': 'ip', 'position_mode': 'ip', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
-    accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
-                                Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION})
+    modes = ModeTraits(
+        accepted=frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE, Mode.HOMING,
+                            Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION}),
+        defaults={'mode': 'ip', 'position_mode': 'ip', 'velocity_mode': 'pv', 'effort_mode': 'pt'},
+        pvt_submode=PVT_SUBMODE, default_interpolation='pvt',
+        interpolation_fault_codes=frozenset({EMCY_PVT_OVERFLOW, EMCY_PVT_UNDERFLOW}))
 
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         """The manual's table; its nNNN rows and the general warning are warnings (the drive
@@ -280,9 +288,8 @@ class Akd(DriveFamily):
         record = obj.for_axis(obj.INTERPOLATION_DATA_RECORD, slot)
         return PvtRecord(position=(record, 1), time=(record, 2), velocity=(record, 3), time_unit=0.001)
 
-    def parameters(self, port: ParameterPort) -> AkdParameters:
-        """ASCII parameters (DRV.ACC, FBUS.PARAM04, ...) over the ASCII channel 0x2026."""
-        return AkdParameters(port)
+    def node(self, config: NodeConfig) -> AkdNode:
+        return AkdNode(self, config)
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """Also DRV.NVSAVE's own object, and the ASCII command channel, which passes any command
@@ -293,7 +300,7 @@ class Akd(DriveFamily):
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
-        if len(axes) > self.max_axes:
+        if len(axes) > self.axes.max_count:
             raise ValueError(f'an AKD drives one axis, {len(axes)} given')
         rx_type = SYNC_EVERY_CYCLE if synchronous else EVENT_DRIVEN
         tx_type = SYNC_EVERY_CYCLE if synchronous else EVENT_DRIVEN

@@ -12,6 +12,7 @@ from drive_bridge.cia402 import objects as obj
 from drive_bridge.families.generic402.pdomap import plan
 from drive_bridge.families.interface import DriveFamily, PdoPlan
 from drive_bridge.families.registry import register_family
+from drive_bridge.families.traits import AxisTraits, ModeTraits
 from drive_bridge.model import AxisConfig, PdoConfig, PdoEntry
 from drive_bridge.resources import family_data
 
@@ -41,8 +42,8 @@ class Generic402(DriveFamily):
     name = 'generic_402'
     description = 'CiA 402 drive (default PDO map fitted to its EDS)'
     default_eds = family_data('generic402', 'generic402.eds')
-    max_axes = 2  # the predefined connection set has four PDOs each way
-    modes_from_drive = True
+    axes = AxisTraits(max_count=2)  # the predefined connection set has four PDOs each way
+    modes = ModeTraits(from_drive=True)
 
     def plan_pdos(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
                   od: ObjectDictionary) -> PdoPlan:

@@ -12,10 +12,11 @@ families/opendrive/edsgen.py):
 - PDO rules of its own: TPDO type 0 is sent at *every* SYNC, 254 on the event timer only;
   RPDO types 0..240 apply at the next SYNC, 254 at once (255 is not listed); the RPDO
   communication records manage sub-indices 1 and 2 only (the bridge writes nothing else);
-- boot: fieldbus RUN low and references 0 before anything else (RUN starts high at power-on),
-  C52 = 1 checked (else the drive ignores every CAN reference), the representation words of the
-  velocity and torque feedback read (0x2004 / 0x2003: the feedback's scale, not a fixed 16384 =
-  n_MAX; ``representation``), the life time clamp;
+- boot (:mod:`~.boot`, run by the node's part :mod:`~.node`): fieldbus RUN low and references 0
+  before anything else (RUN starts high at power-on), C52 = 1 checked (else the drive ignores
+  every CAN reference), the representation words of the velocity and torque feedback read
+  (0x2004 / 0x2003: the feedback's scale, not a fixed 16384 = n_MAX; ``representation``), the
+  life time clamp;
 - EMCY 0x10xx = an alarm (bytes 3-4 the alarm word), 0x00xx = alarms reset;
 - parameters P/C by number with their format words (``parameters``).
 
@@ -37,7 +38,6 @@ TPDOs type 254 with a 10 ms event timer.
 """
 from __future__ import annotations
 
-import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -45,22 +45,15 @@ from typing import Any
 from drive_bridge.cia301.cob import predefined_cob_id
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.modes import Mode
-from drive_bridge.families.errors import ParameterError
 from drive_bridge.families.interface import DriveFamily, Liveness
-from drive_bridge.families.opendrive import alarms, objects as od, representation
-from drive_bridge.families.opendrive.driver import RunLogicDriver
-from drive_bridge.families.opendrive.errors import OpenDriveBootError
+from drive_bridge.families.opendrive import alarms, objects as od
+from drive_bridge.families.opendrive.node import OpenDriveNode
 from drive_bridge.families.opendrive.options import DriveOptions, parse_options
-from drive_bridge.families.opendrive.parameters import SAFETY_PARAMETERS, OpenDriveParameters
-from drive_bridge.families.opendrive.units import Units
-from drive_bridge.families.parameters import ParameterPort
-from drive_bridge.families.ports import BootStep, NodePort
+from drive_bridge.families.opendrive.parameters import SAFETY_PARAMETERS
 from drive_bridge.families.registry import register_family
-from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry, Timeouts
+from drive_bridge.families.traits import AxisTraits, BootTraits, ModeTraits, PdoTraits
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, PdoEntry
 from drive_bridge.resources import family_data
-
-log = logging.getLogger('drive_bridge.families.opendrive')
 
 SYNC_NEXT = 1  # RPDO: applied at the next SYNC
 APPLY_AT_ONCE = 254  # RPDO: applied at once (255 is not listed for this drive)
@@ -73,12 +66,6 @@ def _entry(index: int, bits: int, subindex: int = 0) -> PdoEntry:
     return PdoEntry(index, subindex, bits)
 
 
-def _number(value: object, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise OpenDriveBootError(f'{what} is not a number ({value!r})')
-    return int(value)
-
-
 @register_family
 class OpenDrive(DriveFamily):
     """OPEN drive (CiA 301, RUN logic, references 0x201A-0x201D), one axis per node."""
@@ -87,20 +74,15 @@ class OpenDrive(DriveFamily):
     description = 'OPEN drive converter (CiA 301 only: RUN logic, CAN references, node guarding)'
     # the drive keeps its last RUN and references when its master goes silent (appendix §2.4: no
     # action on a life-guarding timeout in the default firmware, no heartbeat, no RPDO timeout)
-    runs_on_without_master = True
+    boot = BootTraits(has_heartbeat=False, runs_on_without_master=True)
     default_eds = family_data('opendrive', 'opendrive.eds')
-    has_cia402 = False
-    has_heartbeat = False
-    uses_axis_scaling = False  # the driver scales from the axis' drive settings (n_MAX, T_nom, ...)
-    max_axes = 1
+    # the driver scales from the axis' drive settings (n_MAX, T_nom, ...)
+    axes = AxisTraits(has_cia402=False, max_count=1, uses_axis_scaling=False)
     emcy_texts = alarms.EMCY_TEXTS
-    accepted_modes = frozenset({Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE})
-    default_modes = {'mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
+    modes = ModeTraits(accepted=frozenset({Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE}),
+                       defaults={'mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'})
     # RPDO records manage sub 1 and 2 only; TPDO records 1..5 (4 reserved); no SYNC start value
-    pdo_comm_subindices = frozenset({1, 2, 3, 5})
-
-    def __init__(self) -> None:
-        self._drivers: dict[int, RunLogicDriver] = {}  # by node id (one family instance per node)
+    pdo = PdoTraits(comm_subindices=frozenset({1, 2, 3, 5}))
 
     # -- configuration ----------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -115,7 +97,7 @@ class OpenDrive(DriveFamily):
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
-        if len(axes) > self.max_axes:
+        if len(axes) > self.axes.max_count:
             raise ValueError(f'an OPEN drive drives one axis, {len(axes)} given')
         if not axes:
             return (), ()
@@ -150,119 +132,6 @@ class OpenDrive(DriveFamily):
                 return text
         return super().safety_object(config, index, subindex)
 
-    def stop_run_on(self, node_id: int, by_sdo: bool) -> bool:
-        """RUN low and references 0 (the driver's outputs; by SDO too), at rest when the speed is 0."""
-        driver = self._drivers.get(node_id)
-        return True if driver is None else driver.stop_run_on(by_sdo)
-
-    # -- the joint driver ---------------------------------------------------------------------
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
-        driver = RunLogicDriver(node, axis, timeouts, cycle_period, family=self.name)
-        self._drivers[node.node_id] = driver
-        return driver
-
-    # -- boot ----------------------------------------------------------------------------------
-    @staticmethod
-    def _options(node: NodePort) -> DriveOptions:
-        if not node.config.axes:
-            raise OpenDriveBootError('the node has no axis, so its drive settings (array_offset, f_pwm, the '
-                                     'alarm reset function) are unknown; give it one axis')
-        return DriveOptions.of(node.config.axes[0].drive)
-
-    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        return (('RUN low, references 0', self._stop_drive), ('C52 = 1 (CAN references)', self._check_c52),
-                ('representation words 0x2003 / 0x2004', self._read_representations))
-
-    def _read_representations(self, node: NodePort) -> None:
-        """The velocity and torque feedback scaled by their representation words (module
-        representation): one upload of 0x2004 (Tab_osc) / 0x2003 (Tab_int) per table used."""
-        options = self._options(node)
-        tables: dict[int, tuple[int, ...]] = {}
-        found: dict[str, tuple[int, float]] = {}
-        for name, quantity in (('actual_velocity', options.actual_velocity), ('actual_torque', options.actual_torque)):
-            if quantity is None:
-                continue
-            index = representation.FORMATS_OF[quantity.index]
-            if index not in tables:
-                try:
-                    tables[index] = representation.words(node.sdo_read_raw(index, 0))
-                except ValueError as error:
-                    raise OpenDriveBootError(f'0x{index:04X}: {error}') from None
-            word = tables[index][quantity.element]
-            try:
-                found[name] = word, representation.full_scale(word)
-            except ValueError as error:
-                raise OpenDriveBootError(f'{name} {quantity.describe(options.array_offset)}: {error} (0x{index:04X} '
-                                         f'word {quantity.element}); the bridge cannot scale it') from None
-        velocity = found.get('actual_velocity')
-        torque = found.get('actual_torque')
-        scaling = representation.Scaling(
-            velocity[1] if velocity else representation.Scaling.velocity_full_scale,
-            torque[1] if torque else representation.Scaling.torque_full_scale,
-            velocity[0] if velocity else None, torque[0] if torque else None)
-        log.info('node %d (%s): feedback scaling from the representation words: velocity %s, torque %s',
-                 node.node_id, node.name, *(f'0x{w[0]:04X} ({w[1]:g} = 100 %)' if w else 'none'
-                                            for w in (velocity, torque)))
-        driver = self._drivers.get(node.node_id)
-        if driver is not None:
-            driver.units = Units(options, scaling)
-
-    def boot_steps_after(self, node: NodePort) -> Sequence[BootStep]:
-        return (('life time within 32767/f_pwm', self._clamp_life_time),
-                ('logic word 0x201F as the drive has it', self._read_logic_word))
-
-    def _stop_drive(self, node: NodePort) -> None:
-        """Fieldbus RUN low (the bits the bridge owns cleared, the others kept as read) and every
-        reference 0: the drive starts with RUN high, and may still hold a previous master's
-        references."""
-        options = self._options(node)
-        word = _number(node.sdo_read(od.INPUTS_STANDARD_WR, 0), '0x201F')
-        owned = od.RUN_BIT | 1 << options.alarm_reset_function
-        node.sdo_write(od.INPUTS_STANDARD_WR, 0, word & ~owned & 0xFFFFFFFF)
-        for index in (*od.SPEED_REFERENCES, od.TORQUE_REFERENCE):
-            if node.has_object(index):
-                node.sdo_write(index, 0, 0)
-
-    def _read_logic_word(self, node: NodePort) -> None:
-        """After the boot SDOs (which may set logic functions of the fieldbus channel): the
-        driver sends the bits it does not own as they are now (RUN and the alarm reset function
-        low again, should a boot SDO have set them)."""
-        word = _number(node.sdo_read(od.INPUTS_STANDARD_WR, 0), '0x201F')
-        owned = od.RUN_BIT | 1 << self._options(node).alarm_reset_function
-        if word & owned:
-            node.sdo_write(od.INPUTS_STANDARD_WR, 0, word & ~owned & 0xFFFFFFFF)
-        driver = self._drivers.get(node.node_id)
-        if driver is not None:
-            driver.set_logic_word(word)
-
-    def _check_c52(self, node: NodePort) -> None:
-        offset = self._options(node).array_offset
-        value = _number(node.sdo_read(od.CONNECTIONS, od.C52 + offset), f'C52 (0x200E:{od.C52 + offset:02X})')
-        if value != 1:
-            raise OpenDriveBootError(f'C52 = {value} (0x200E:{od.C52 + offset:02X}): the drive ignores the CAN '
-                                     'references 0x201A-0x201D unless C52 = 1; set C52 = 1 (~/param_write C52 1, '
-                                     'then ~/param_save) and restart the drive')
-
-    def _clamp_life_time(self, node: NodePort) -> None:
-        """The drive keeps at most 32767 / f_pwm s of node life time: write a life time factor
-        within it (and warn) when guard time x factor is longer."""
-        config = node.config
-        if not config.guarding:
-            return
-        limit_ms = self._options(node).life_time_limit_ms
-        life_ms = config.guard_time_ms * config.life_time_factor
-        if life_ms <= limit_ms:
-            return
-        factor = max(1, int(limit_ms // config.guard_time_ms))
-        log.warning('node %d (%s): node life time %d ms (guard time %d ms x %d) is longer than the drive keeps '
-                    '(32767 / f_pwm = %.0f ms); life time factor written as %d (%d ms)%s', node.node_id, node.name,
-                    life_ms, config.guard_time_ms, config.life_time_factor, limit_ms, factor,
-                    factor * config.guard_time_ms,
-                    '; the guard time alone is longer: shorten guard_time_ms' if factor * config.guard_time_ms
-                    > limit_ms else '')
-        node.sdo_write(od.LIFE_TIME_FACTOR, 0, factor)
-
     # -- EMCY and parameters --------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         return alarms.decode(node_id, node_name, data, timestamp)
@@ -276,15 +145,6 @@ class OpenDrive(DriveFamily):
             'array_offset' in config.axes[0].drive else {0, 1}
         return index == od.CONNECTIONS and subindex - od.C63 in offsets
 
-    def parameters(self, port: ParameterPort) -> OpenDriveParameters:
-        """P and C parameters by number (0x200D / 0x200E) with their format words."""
-        driver = self._drivers.get(port.node_id)
-        config: NodeConfig | None = getattr(port, 'config', None)
-        if driver is not None:
-            offset = driver.options.array_offset
-        elif config is not None and config.axes and 'array_offset' in config.axes[0].drive:
-            offset = int(config.axes[0].drive['array_offset'])
-        else:
-            raise ParameterError(f'node {port.node_id} ({port.name}): the sub-index offset of the parameter arrays '
-                                 '(the axis drive setting array_offset) is unknown', node_id=port.node_id)
-        return OpenDriveParameters(port, offset)
+    def node(self, config: NodeConfig) -> OpenDriveNode:
+        """The drive at run time: its driver, boot steps, stop and parameters (:mod:`~.node`)."""
+        return OpenDriveNode(self, config)

@@ -20,7 +20,7 @@ which slot. What the bridge knows beyond the EDS (the config names the vendor's 
   guarding step writes 0x1017 = 0, 0x100C and 0x100D;
 - modes: VL, PV and PT only (0x6060 always accepts a write and reads it back; 0x6061 tells);
   csp / ip / hm are refused before anything is sent; default pv, with the bridge's position
-  loop over 0x60FF for position commands and trajectories (``default_position_loop``);
+  loop over 0x60FF for position commands and trajectories (``modes.default_position_loop``);
 - position actual 0x6063 (no 0x6064); units read from the drive (:mod:`~.units`);
 - EMCY: fault number (bytes 3-4) and DO (byte 5) to the joint by p8743 (:mod:`~.emcy`);
 - faults: acknowledged by 0x1003:00 = 0 and the controlword edge (:mod:`~.driver`);
@@ -29,7 +29,7 @@ which slot. What the bridge knows beyond the EDS (the config names the vendor's 
 """
 from __future__ import annotations
 
-import logging
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -38,21 +38,16 @@ from typing import Any
 from canopen import ObjectDictionary
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects
 from drive_bridge.families.interface import DriveFamily, IdentityMatch, Liveness
-from drive_bridge.families.parameters import ParameterPort
-from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.registry import register_family
-from drive_bridge.families.s120 import boot, eds, emcy, objects as s, pdos
-from drive_bridge.families.s120.driver import S120Quirks
+from drive_bridge.families.s120 import eds, emcy, objects as s, pdos
+from drive_bridge.families.s120.node import S120Node
 from drive_bridge.families.s120.options import parse_options
-from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, S120Parameters, read_number, sdo_index
-from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig, Timeouts
-
-log = logging.getLogger('drive_bridge.families.s120')
+from drive_bridge.families.s120.parameters import SAFETY_PARAMETERS, sdo_index
+from drive_bridge.families.traits import AxisTraits, BootTraits, ModeTraits, PdoTraits
+from drive_bridge.model import AxisConfig, Identity, NodeConfig, PdoConfig, PositionLoopConfig
 
 # 1/s and rad (m): the loop corrects an error of 0.1 rad with 1 rad/s on top of the feed-forward.
 # Conservative for a real drive: an 8 ms cycle, the sampling time p8848 and the next-SYNC latch make
@@ -60,6 +55,13 @@ log = logging.getLogger('drive_bridge.families.s120')
 # with ~2 mrad max error in the loop's own frame (test_s120_family.py).
 DEFAULT_LOOP = PositionLoopConfig(gain=10.0, following_error=0.2)
 PROFILE_OBJECTS = (s.PROFILE_OBJECTS[0], s.PROFILE_OBJECTS[1] + s.PROFILE_OFFSET * (s.MAX_DRIVE_OBJECTS - 1))
+
+
+def _is_mappable(od: ObjectDictionary, index: int) -> bool:
+    """The (prepared) EDS has this profile object, PDO-mappable."""
+    if not PROFILE_OBJECTS[0] <= index <= PROFILE_OBJECTS[1] or index not in od:
+        return False
+    return bool(getattr(od[index], 'pdo_mappable', False))
 
 
 @register_family
@@ -70,22 +72,15 @@ class SinamicsS120(DriveFamily):
     description = 'Siemens SINAMICS S120 with CBC10 (CANopen; VL/PV/PT, the bridge closes the position loop)'
     vendor_safety_objects = {sdo_index(number): text for number, text in SAFETY_PARAMETERS.items()}
     default_eds = None  # the vendor's EDS, named by the config's dcf
-    has_cia402 = True
-    max_axes = s.MAX_DRIVE_OBJECTS
     emcy_texts = emcy.EMCY_CODE_TEXTS
-    accepted_modes = frozenset({Mode.VELOCITY, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE})
-    default_modes = {'mode': 'pv', 'position_mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'}
-    has_heartbeat = False  # as a consumer: life guarding is the drive's only way to notice a lost master
-    uses_axis_scaling = False  # units are read from the drive; the axis' `drive` settings give the mechanics
-    default_position_loop = DEFAULT_LOOP
-    pdo_comm_subindices = frozenset({1, 2, 3, 5})  # RPDO 1-2; TPDO 1-5 with 4 a reserved compatibility entry
-
-    def __init__(self) -> None:
-        self._mappable: dict[int, bool] | None = None  # from the prepared EDS: index -> PDO-mappable
-        self._drivers: dict[int, S120Quirks] = {}  # by slot (one family instance per node)
-        self._slot_of_do: dict[int, int] = {}  # DO number -> slot (p8743, read at boot)
-        self._do_of_slot: dict[int, int] = {}
-        self._cycle_period: float | None = None
+    modes = ModeTraits(accepted=frozenset({Mode.VELOCITY, Mode.PROFILE_VELOCITY, Mode.PROFILE_TORQUE}),
+                       defaults={'mode': 'pv', 'position_mode': 'pv', 'velocity_mode': 'pv', 'effort_mode': 'pt'},
+                       default_position_loop=DEFAULT_LOOP)
+    # as a consumer: life guarding is the drive's only way to notice a lost master
+    boot = BootTraits(has_heartbeat=False)
+    # units are read from the drive; the axis' `drive` settings give the mechanics
+    axes = AxisTraits(max_count=s.MAX_DRIVE_OBJECTS, uses_axis_scaling=False)
+    pdo = PdoTraits(comm_subindices=frozenset({1, 2, 3, 5}))  # RPDO 1-2; TPDO 1-5 with 4 a reserved compatibility entry
 
     # -- configuration ------------------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -98,20 +93,16 @@ class SinamicsS120(DriveFamily):
         return IdentityMatch.NONE
 
     def prepare_object_dictionary(self, od: ObjectDictionary, slots: Sequence[int]) -> Sequence[str]:
-        problems = eds.prepare(od, slots)
-        self._mappable = {}
-        for index in od.indices:
-            if PROFILE_OBJECTS[0] <= index <= PROFILE_OBJECTS[1]:
-                entry = od[index]
-                self._mappable[index] = bool(getattr(entry, 'pdo_mappable', False))
-        return problems
-
-    def _is_mappable(self, index: int) -> bool:
-        return True if self._mappable is None else self._mappable.get(index, False)
+        return eds.prepare(od, slots)
 
     def default_pdos(self, node_id: int, axes: Sequence[AxisConfig],
                      synchronous: bool) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
-        return pdos.default_pdos(node_id, axes, synchronous, self._is_mappable)
+        return pdos.default_pdos(node_id, axes, synchronous)
+
+    def default_pdos_for_eds(self, node_id: int, axes: Sequence[AxisConfig], synchronous: bool,
+                             od: ObjectDictionary) -> tuple[tuple[PdoConfig, ...], tuple[PdoConfig, ...]]:
+        """The default map of the node's prepared EDS: what it lacks or will not map is left out."""
+        return pdos.default_pdos(node_id, axes, synchronous, functools.partial(_is_mappable, od))
 
     def check_pdos(self, rpdos: Sequence[PdoConfig], tpdos: Sequence[PdoConfig], slots: Sequence[int]) -> list[str]:
         """The drive's PDO limits this node's PDOs break (for the loader; see the report)."""
@@ -121,7 +112,7 @@ class SinamicsS120(DriveFamily):
         return parse_options(options)
 
     def liveness(self, config: NodeConfig) -> Liveness:
-        """Life guarding: the config requires guard_time_ms (``has_heartbeat = False``)."""
+        """Life guarding: the config requires guard_time_ms (``boot.has_heartbeat`` false)."""
         return Liveness.GUARDING if config.guarding else Liveness.NONE
 
     # -- axes ---------------------------------------------------------------------------------------
@@ -130,69 +121,17 @@ class SinamicsS120(DriveFamily):
         targets, each +0x800 per slot; the target position 0x607A does not exist (never sent)."""
         return replace(AxisObjects.cia402(slot), position_actual=(s.profile_index(s.POSITION_ACTUAL, slot), 0))
 
-    # -- the joint driver ----------------------------------------------------------------------------
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
-        driver = S120Quirks(axis)
-        self._drivers[axis.slot] = driver
-        self._cycle_period = cycle_period
-        return Axis(node, axis, timeouts, cycle_period, profile=self, quirks=driver)
-
-    # -- boot -----------------------------------------------------------------------------------------
-    def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:
-        return (('NMT enter pre-operational (p8684 may have left it stopped)', boot.enter_pre_operational),)
-
-    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        return (('drive objects p8743', self._read_drive_objects),
-                ('units p0408/p0418/r0333', self._read_units),
-                ('CAN sampling time p8848', self._check_sampling_time),
-                ('fault reaction p8641', self._check_fault_reaction),
-                ('PDO limits', boot.check_limits),
-                ('free the PDO COB-IDs', boot.free_cob_ids))
-
-    def _read_drive_objects(self, node: NodePort) -> None:
-        found = boot.read_drive_objects(node)
-        self._do_of_slot = found
-        self._slot_of_do = {do: slot for slot, do in found.items()}
-
-    def _read_units(self, node: NodePort) -> None:
-        for slot, do in sorted(self._do_of_slot.items()):
-            driver = self._drivers.get(slot)
-            units = boot.read_units(node, do, slot, driver.options.encoder if driver is not None else None)
-            if driver is not None:
-                driver.apply_units(units, do)
-            log.info('node %d (%s) slot %d = DO %d: %s', node.node_id, node.name, slot, do, units.describe())
-
-    def _check_sampling_time(self, node: NodePort) -> None:
-        boot.check_sampling_time(node, self._cycle_period)
-
-    def _check_fault_reaction(self, node: NodePort) -> None:
-        boot.warn_fault_reaction(node, self._do_of_slot)
-
     # -- EMCY and parameters ------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
-        return emcy.decode(node_id, node_name, data, timestamp, self._slot_of_do)
-
-    def drive_object_of(self, slot: int) -> int | None:
-        """The DO number of an axis slot (p8743, known once the node booted)."""
-        return self._do_of_slot.get(slot)
+        """Without the node's p8743 (a recording's offline decoding): the text, no joint; the
+        node's own part (:class:`~.node.S120Node`) knows the joint once the node booted."""
+        return emcy.decode(node_id, node_name, data, timestamp, {})
 
     def stores_parameters(self, config: NodeConfig, index: int, subindex: int) -> bool:
         """Also the parameter window of p0970/p0971/p0976/p0977 (reset, save, restore, save all)."""
         return (super().stores_parameters(config, index, subindex)
                 or index in {s.PARAMETER_BASE + number for number in s.STORE_NUMBERS})
 
-    def parameters(self, port: ParameterPort) -> S120Parameters:
-        """p/r parameters of any drive object (0x2000 + number, selector p8630)."""
-        config: NodeConfig | None = getattr(port, 'config', None)
-
-        def drive_object_of(slot: int | None) -> int:
-            if slot is None:
-                if config is None or not config.axes:
-                    raise LookupError('the node has no configured axis')
-                slot = config.axes[0].slot
-            known = self._do_of_slot.get(slot)
-            if known is not None:
-                return known
-            return int(read_number(port, s.CU_DO, s.P_DO_OF_SLOT, slot))
-        return S120Parameters(port, drive_object_of)
+    def node(self, config: NodeConfig) -> S120Node:
+        """The Control Unit at run time: its DOs (p8743), units and drivers (:mod:`~.node`)."""
+        return S120Node(self, config)

@@ -32,31 +32,30 @@ in increments per 250 us (0x6094 = 0/0) without a check against a real drive.
 """
 from __future__ import annotations
 
-import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import AxisObjects, FaultModel, standard_strategy
-from drive_bridge.families.interface import BootDetection, DriveFamily, Liveness, PdoConfiguration
-from drive_bridge.families.parameters import ParameterPort
-from drive_bridge.families.ports import BootStep, NodePort
+from drive_bridge.families.interface import DriveFamily, Liveness
 from drive_bridge.families.registry import register_family
-from drive_bridge.families.servostar import boot, emcy, objects as o, pdos
-from drive_bridge.families.servostar.driver import ServostarQuirks, mode_label
-from drive_bridge.families.servostar.errors import ServostarBootError
+from drive_bridge.families.servostar import emcy, objects as o, pdos
+from drive_bridge.families.servostar.node import ServostarNode
 from drive_bridge.families.servostar.options import parse_options
-from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE, ServostarParameters
-from drive_bridge.families.servostar.units import DriveUnits
-from drive_bridge.joint import JointDriver, NodeIo
+from drive_bridge.families.servostar.parameters import STORE_COMMANDS, TABLE
+from drive_bridge.families.traits import (
+    AxisTraits,
+    BootDetection,
+    BootTraits,
+    ModeTraits,
+    PdoConfiguration,
+    PdoTraits,
+)
 from drive_bridge.joint.strategy import StreamStrategy
-from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig, Timeouts
+from drive_bridge.model import AxisConfig, NodeConfig, PdoConfig
 from drive_bridge.resources import family_data
-
-log = logging.getLogger('drive_bridge.families.servostar')
 
 STORE_OBJECTS = frozenset(TABLE[name].index for name in STORE_COMMANDS)
 
@@ -72,25 +71,16 @@ class Servostar(DriveFamily):
         0x3515: 'CBAUD, the CAN bit rate',
     }
     default_eds = family_data('servostar', 'servostar.eds')
-    has_cia402 = True
-    max_axes = 1
     emcy_texts = emcy.EMCY_TEXTS
-    accepted_modes = frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.HOMING, o.MODE_POSITION,
-                                o.MODE_SPEED_DIGITAL, o.MODE_CURRENT_DIGITAL, o.MODE_TRAJECTORY})
-    default_modes = {'mode': str(o.MODE_TRAJECTORY), 'position_mode': str(o.MODE_TRAJECTORY),
-                     'velocity_mode': 'pv', 'effort_mode': str(o.MODE_CURRENT_DIGITAL)}
-    boot_detection = BootDetection.EMCY
-    nmt_reset_communication = False
-    has_heartbeat = False
-    uses_axis_scaling = False  # PRBASE etc. are read at boot; the axis' `drive` settings give the mechanics
-    pdo_configuration = PdoConfiguration.SELECT_BY_NUMBER
-    pdo_comm_subindices = o.COMM_SUBINDICES
-    fault_model = FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT)
-
-    def __init__(self) -> None:
-        self._drivers: dict[int, ServostarQuirks] = {}  # by slot (one family instance per node)
-        self._cycle_period: float | None = None
-        self._units: DriveUnits | None = None  # as the last boot read them
+    modes = ModeTraits(
+        accepted=frozenset({Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY, Mode.HOMING, o.MODE_POSITION,
+                            o.MODE_SPEED_DIGITAL, o.MODE_CURRENT_DIGITAL, o.MODE_TRAJECTORY}),
+        defaults={'mode': str(o.MODE_TRAJECTORY), 'position_mode': str(o.MODE_TRAJECTORY),
+                  'velocity_mode': 'pv', 'effort_mode': str(o.MODE_CURRENT_DIGITAL)})
+    boot = BootTraits(detection=BootDetection.EMCY, nmt_reset_communication=False, has_heartbeat=False)
+    pdo = PdoTraits(configuration=PdoConfiguration.SELECT_BY_NUMBER, comm_subindices=o.COMM_SUBINDICES)
+    # PRBASE etc. are read at boot; the axis' `drive` settings give the mechanics
+    axes = AxisTraits(uses_axis_scaling=False, fault_model=FaultModel(fault_state=False, reset_bit=o.CW_RESET_FAULT))
 
     # -- configuration ------------------------------------------------------------------------------
     def eds_for(self, axis_count: int) -> Path | None:
@@ -107,7 +97,7 @@ class Servostar(DriveFamily):
         return parse_options(options)
 
     def liveness(self, config: NodeConfig) -> Liveness:
-        """Node guarding: the config requires guard_time_ms (``has_heartbeat = False``)."""
+        """Node guarding: the config requires guard_time_ms (``boot.has_heartbeat`` false)."""
         return Liveness.GUARDING if config.guarding else Liveness.NONE
 
     # -- boot-up ------------------------------------------------------------------------------------
@@ -117,46 +107,6 @@ class Servostar(DriveFamily):
     def bootup_emcy_is_ambiguous(self, data: bytes) -> bool:
         """8 zero bytes are also the "error free" EMCY; 0 bytes are only ever the boot-up."""
         return len(data) != 0
-
-    def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
-        return (('free PDOs 37-40 (0x2600 / 0x2A00)', boot.select_free_pdos),
-                ('units and limits PRBASE / VLIM / PEMAX', self._read_units),
-                ('trajectory period PTBASE', self._check_ptbase))
-
-    def _read_units(self, node: NodePort) -> None:
-        units = boot.read_units(node)
-        for axis in node.config.axes:
-            driver = self._drivers.get(axis.slot)
-            vlim = units.joint_speed_limit(driver.options, axis.joint_type) if driver is not None else None
-            limit = axis.limits.max_velocity
-            if vlim is not None and limit is not None and limit > vlim * (1 + 1e-9):
-                raise ServostarBootError(
-                    f"joint {axis.joint!r}: max_velocity {limit:g} exceeds the drive's speed limit VLIM (0x3622) = "
-                    f'{units.vlim_rpm:g} rpm ({vlim:.6g} at the joint): the drive faults on steps beyond '
-                    'VLIM x period; lower max_velocity or raise VLIM')
-        log.info('node %d (%s): %s', node.node_id, node.name, units.describe())
-        self._units = units
-
-    def _check_ptbase(self, node: NodePort) -> None:
-        period = boot.read_ptbase(node)
-        units = self._units
-        sync = self._cycle_period
-        for axis in node.config.axes:
-            driver = self._drivers.get(axis.slot)
-            if driver is None:
-                continue
-            if units is not None:
-                driver.apply_units(units, period)
-            if sync is None:
-                continue
-            streams = o.MODE_TRAJECTORY in (axis.mode, axis.position_mode)
-            problem = boot.check_ptbase(period, sync, streams)
-            if problem:
-                raise ServostarBootError(f'joint {axis.joint!r} streams in mode {mode_label(o.MODE_TRAJECTORY)}: '
-                                              f'{problem}')
-            if abs(period - sync) > 1e-6:
-                log.warning('node %d (%s): PTBASE is %g ms, the SYNC period %g ms: mode 0xFA will be refused',
-                            node.node_id, node.name, period * 1000, sync * 1000)
 
     # -- PDOs ---------------------------------------------------------------------------------------
     def select_pdo(self, kind: str, config: PdoConfig) -> Sequence[tuple[int, int, int]] | None:
@@ -177,13 +127,6 @@ class Servostar(DriveFamily):
             return StreamStrategy.CYCLIC
         return standard_strategy(mode, ip_submode, None)
 
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
-        driver = ServostarQuirks(axis)
-        self._drivers[axis.slot] = driver
-        self._cycle_period = cycle_period
-        return Axis(node, axis, timeouts, cycle_period, profile=self, quirks=driver)
-
     # -- EMCY and parameters ------------------------------------------------------------------------
     def decode_emcy(self, node_id: int, node_name: str, data: bytes, timestamp: float) -> EmcyEvent:
         return emcy.decode(node_id, node_name, data, timestamp)
@@ -192,7 +135,6 @@ class Servostar(DriveFamily):
         """Also the object channel's SAVE, LOAD and RSTVAR."""
         return super().stores_parameters(config, index, subindex) or index in STORE_OBJECTS
 
-    def parameters(self, port: ParameterPort) -> ServostarParameters:
-        """ASCII parameters of the object channel 0x3500+ by name."""
-        config: NodeConfig | None = getattr(port, 'config', None)
-        return ServostarParameters(port, config.od if config is not None else None)
+    def node(self, config: NodeConfig) -> ServostarNode:
+        """The drive at run time: its units, PTBASE against the SYNC period (:mod:`~.node`)."""
+        return ServostarNode(self, config)
