@@ -20,7 +20,7 @@ from drive_bridge.sim.commobjects import PRODUCER_HEARTBEAT
 from drive_bridge.sim.drive402 import SimDrive402
 from drive_bridge.sim.nmt import NmtState
 from drive_bridge.sim.nodeid import change_node_id
-from drive_bridge.sim.pdo import COB_INVALID, Pdo
+from drive_bridge.sim.pdocodec import COB_INVALID, Pdo
 from drive_bridge.sim.registry import register_simulator
 from drive_bridge.sim.s120.address import AddressSwitch
 from drive_bridge.sim.s120.axis import S120Axis

@@ -24,7 +24,9 @@ from typing import Any
 
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.sim.pdo import COB_INVALID, MAX_BITS, Pdo, PdoEngine
+from drive_bridge.sim.pdo import PdoEngine
+from drive_bridge.sim.pdocodec import COB_INVALID, Pdo
+from drive_bridge.sim.pdoparams import MAX_BITS
 from drive_bridge.sim.s120.objects import ABORT_PDO_TOO_LONG, ABORT_READ_ONLY, ABORT_STATE, MAX_VALID_RPDOS
 from drive_bridge.sim.store import key
 
