@@ -38,7 +38,8 @@ from drive_bridge.sim.akd.objects import (
     PVT,
 )
 from drive_bridge.sim.akd.pvt import AkdInterpolation, AkdIpBuffer, PvtPoint
-from drive_bridge.sim.axis402 import ENERGISED, Axis402
+from drive_bridge.sim.axis402 import Axis402
+from drive_bridge.sim.devicecontrol import ENERGISED
 from drive_bridge.sim.interfaces import AxisDrive
 from drive_bridge.sim.motion import wrap_int32
 from drive_bridge.sim.opmodes import Homing, OpMode, make_mode
@@ -304,6 +305,6 @@ class AkdAxis(Axis402):
             bits |= 1 << 15
         if state is State.QUICK_STOP_ACTIVE:
             bits |= 1 << 19
-        if self._stop is not None and not self._stop.finished:
+        if self.control.stop is not None and not self.control.stop.finished:
             bits |= 1 << 31
         return bits
