@@ -5,8 +5,9 @@
 Modules: objects (indices, numbers, codes), parameters (the SINAMICS parameter table), emcy
 (messages, EMCY layout, 0x1003 per module), pdo (PDO rules), modes (VL / PV / PT), axis (a
 motor drive object), options, dictionary (the object dictionary as built), window (the
-parameter window p8630), storage (0x1010 / 0x1011), telegram (A08751), view (a drive object's
-snapshot), drive (the node: :class:`SimS120`, registered on import, composed of those parts).
+parameter window p8630), storage (0x1010 / 0x1011), telegram (A08751), messages (the active
+faults and alarms), view (a drive object's snapshot), drive (the node: :class:`SimS120`,
+registered on import, composed of those parts).
 
 The object dictionary is the node config's EDS, as for every simulated slave; a modular EDS
 must come expanded for the configured slots (the family's ``prepare_object_dictionary``). What

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from drive_bridge.cia402.statemachine import State
@@ -23,18 +23,16 @@ from drive_bridge.sim.s120.dictionary import (
     predefined_connection_set,
     relax_inverted_limits,
 )
-from drive_bridge.sim.s120.emcy import Message, S120Emcy, write_history
+from drive_bridge.sim.s120.emcy import Message, S120Emcy
+from drive_bridge.sim.s120.messages import ActiveMessages
 from drive_bridge.sim.s120.objects import (
     A08751,
     A08758,
     COMMUNICATION_ERROR_VALUE,
     CONSUMER_HEARTBEAT,
     CU,
-    ERROR_BEHAVIOUR,
     ERROR_HISTORY,
     F08700,
-    NMT_PRE_OPERATIONAL,
-    NMT_STOPPED,
     P8641_REACTIONS,
     PDO_BLOCK,
     REACTIONS,
@@ -61,7 +59,6 @@ class SimS120(SimDrive402):
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
         given = dict(options or {})
         self._dos = drive_object_count(node.name, given.get('drive_objects', 0), SimDrive402._axis_count(node))
-        self.messages: list[Message] = []
         self._kept: list[Message] = []
         self._load_saved = False
         self.window = ParameterWindow(self)
@@ -79,6 +76,7 @@ class SimS120(SimDrive402):
         self.store.remove(CONSUMER_HEARTBEAT)  # producer only [2.2]
         relax_inverted_limits(self.store)
         emcy: S120Emcy = self.emcy  # type: ignore[assignment]
+        self.active = ActiveMessages(self.store, self.s120_axes, emcy, self.set_nmt_state, self.pdo.poll_events)
         emcy.messages = lambda: self.messages
         pdo: S120PdoEngine = self.pdo  # type: ignore[assignment]
         pdo.sub0_read_only = opts['mapping_sub0_read_only']
@@ -93,7 +91,7 @@ class SimS120(SimDrive402):
         self.storage = ParameterStorage(self.store, self.cu, self.s120_axes, self.reload_communication_objects)
         self._register_s120_objects()
         self.storage.keep_factory()
-        self._write_history()
+        self.active.write_history()
 
     # -- construction ------------------------------------------------------------------------------------
     def _axis_count(self, node: NodeConfig) -> int:  # type: ignore[override]  # needs the option
@@ -162,54 +160,15 @@ class SimS120(SimDrive402):
             self._load_saved = True
             self.restart(application=True)
 
-    # -- messages --------------------------------------------------------------------------------------
-    def _raise(self, message: Message) -> None:
-        for m in self.messages:
-            if m.number == message.number and m.do == message.do and m.fault == message.fault:
-                m.persistent, m.value = message.persistent, message.value
-                return  # already active
-        self.messages.append(message)
-        self._messages_changed()
-        if message.signalled:
-            self.emcy.signal(message)  # type: ignore[attr-defined]
-        if message.fault:
-            axis = self.axis_of(message.do)
-            if axis is not None:
-                axis.trip(message.reaction)
-            if not message.can:
-                self._nmt_reaction(2)  # p8609[1]: device errors
-        self.pdo.poll_events()
-
-    def _remove(self, predicate: Callable[[Message], bool]) -> bool:
-        removed = [m for m in self.messages if predicate(m)]
-        if not removed:
-            return False
-        self.messages = [m for m in self.messages if not predicate(m)]
-        self._messages_changed()
-        if any(m.signalled for m in removed) and not self.emcy.register:
-            self.emcy.all_clear()  # type: ignore[attr-defined]
-        self.pdo.poll_events()
-        return True
-
-    def _messages_changed(self) -> None:
-        self._write_history()
-        for axis in self.s120_axes:
-            axis.warning = any(not m.fault and m.do == axis.do_number for m in self.messages)
-
-    def _write_history(self) -> None:
-        write_history(self.store, self.messages, self.drive_objects)
-
-    def _nmt_reaction(self, sub: int) -> None:
-        """p8609[sub - 1] (0x1029:sub): 0 pre-operational, 1 no change, 2 stopped."""
-        reaction = self.store.values.get(key(ERROR_BEHAVIOUR, sub), 1)
-        if reaction == NMT_PRE_OPERATIONAL:
-            self.set_nmt_state(NmtState.PRE_OPERATIONAL)
-        elif reaction == NMT_STOPPED:
-            self.set_nmt_state(NmtState.STOPPED)
+    # -- messages (messages.py) -------------------------------------------------------------------------
+    @property
+    def messages(self) -> list[Message]:
+        """The active faults and alarms in order of occurrence."""
+        return self.active.items
 
     def _acknowledged(self, axis: S120Axis) -> None:
         """The axis left Fault (controlword bit 7 edge, or 0x1003:0 = 0): its faults are gone."""
-        self._remove(lambda m: m.fault and m.do == axis.do_number and not m.persistent)
+        self.active.remove(lambda m: m.fault and m.do == axis.do_number and not m.persistent)
 
     def fault_cause_persists(self, axis: Any) -> bool:
         do = getattr(axis, 'do_number', None)
@@ -220,8 +179,8 @@ class SimS120(SimDrive402):
         for axis in self.s120_axes:
             axis.acknowledge_fault()
         busy = {a.do_number for a in self.s120_axes if a.state in (State.FAULT, State.FAULT_REACTION_ACTIVE)}
-        self._remove(lambda m: m.fault and not m.persistent and m.do not in busy)
-        self._write_history()
+        self.active.remove(lambda m: m.fault and not m.persistent and m.do not in busy)
+        self.active.write_history()
 
     # -- fault injection (tests) ---------------------------------------------------------------------------
     def inject_fault(self, number: int, do: int = 0, manufacturer: bytes = b'', persistent: bool = False, *,
@@ -233,13 +192,13 @@ class SimS120(SimDrive402):
         if reaction not in REACTIONS:
             raise ValueError(f'fault reaction {reaction!r}: one of {", ".join(REACTIONS)}')
         with self._lock:
-            self._raise(Message(number, self.drive_object(do), True, value, persistent, reaction))
+            self.active.add(Message(number, self.drive_object(do), True, value, persistent, reaction))
 
     def inject_alarm(self, number: int, do: int = 0, *, value: int = 0) -> None:
         """Alarm A``number`` on drive object ``do`` until :meth:`clear_cause`: statusword bit 7; in the
         CAN range 8700..8799 also EMCY, 0x1001 and 0x1003."""
         with self._lock:
-            self._raise(Message(number, self.drive_object(do), False, value, True))
+            self.active.add(Message(number, self.drive_object(do), False, value, True))
 
     def clear_cause(self, number: int | None = None, do: int | None = None) -> None:
         """The cause of the matching messages is gone: alarms disappear, faults can be acknowledged."""
@@ -252,7 +211,7 @@ class SimS120(SimDrive402):
             for m in self.messages:
                 if match(m):
                     m.persistent = False
-            self._remove(lambda m: match(m) and not m.fault)
+            self.active.remove(lambda m: match(m) and not m.fault)
 
     def clear_fault_cause(self, axis: int | None = None) -> None:
         with self._lock:
@@ -276,31 +235,31 @@ class SimS120(SimDrive402):
         3 OFF3), an alarm where p8641 = 0; then p8609[0]."""
         for axis in self.s120_axes:
             reaction = P8641_REACTIONS.get(int(axis.parameter(8641)))
-            self._raise(Message(F08700, axis.do_number, reaction is not None, COMMUNICATION_ERROR_VALUE, True,
+            self.active.add(Message(F08700, axis.do_number, reaction is not None, COMMUNICATION_ERROR_VALUE, True,
                                 reaction or 'OFF2'))
-        self._nmt_reaction(1)
+        self.active.nmt_reaction(1)
 
     def on_life_guarding_recovered(self) -> None:
         for m in self.messages:
             if m.number == F08700 and m.value == COMMUNICATION_ERROR_VALUE:
                 m.persistent = False
-        self._remove(lambda m: m.number == F08700 and not m.fault)
+        self.active.remove(lambda m: m.number == F08700 and not m.fault)
 
     def on_heartbeat_lost(self, node: int) -> None:
         """The S120 consumes no heartbeat [2.2]."""
 
     def _rpdo_limit(self, exceeded: bool) -> None:
         if exceeded:
-            self._raise(Message(A08758, CU, False, 0, True))
+            self.active.add(Message(A08758, CU, False, 0, True))
         else:
-            self._remove(lambda m: m.number == A08758)
+            self.active.remove(lambda m: m.number == A08758)
 
     def _telegram(self, pdo: Pdo, stamp: float) -> None:
         """An RPDO arrived: A08751 while its mean cycle is below 2 x p8848 [2.4, §2.10]."""
         do = self._slot_do(pdo.number)
         too_fast = self.telegrams.received(pdo.number, stamp, 2.0 * self.effective_p8848 / 1000.0)
         if too_fast:
-            self._raise(Message(A08751, do, False, 0, True))
+            self.active.add(Message(A08751, do, False, 0, True))
         elif too_fast is False:
             self._telegram_check(do, stamp)
 
@@ -311,7 +270,7 @@ class SimS120(SimDrive402):
         if not self.telegrams.in_spec(lambda number: self._slot_do(number) == do, now,
                                       2.0 * self.effective_p8848 / 1000.0):
             return False
-        return self._remove(lambda m: m.number == A08751 and m.do == do)
+        return self.active.remove(lambda m: m.number == A08751 and m.do == do)
 
     def supervise(self, now: float) -> bool:
         stamp = time.time()  # the frames' time base
@@ -356,14 +315,14 @@ class SimS120(SimDrive402):
         self._power_cycle = False
         self.effective_p8848 = float(self.cu.get(8848))
         self._kept = [m for m in self.messages if m.persistent and m.number != F08700]
-        self.messages = []
+        self.active.items = []
         self.telegrams.clear()
-        self._messages_changed()
+        self.active.changed()
         super().reset_application()
 
     def on_reset_communication(self) -> None:
         """0x1003 went back to its stored value with 0x1000..0x1FFF: it lists the messages still active."""
-        self._write_history()
+        self.active.write_history()
 
     def on_boot(self) -> None:
         super().on_boot()
@@ -374,7 +333,7 @@ class SimS120(SimDrive402):
             self.set_nmt_state(NmtState.STOPPED)
         kept, self._kept = self._kept, []
         for message in kept:
-            self._raise(message)
+            self.active.add(message)
 
     # -- inspection (tests) -----------------------------------------------------------------------------
     def view(self, do: int = 0) -> DriveObjectView:

@@ -35,7 +35,9 @@ class WindowedNode(Protocol):
 
     store: ObjectStore
     cu: ParameterSet
-    messages: list[Message]
+
+    @property
+    def messages(self) -> list[Message]: ...
 
     @property
     def drive_objects(self) -> tuple[int, ...]: ...
