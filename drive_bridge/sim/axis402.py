@@ -47,7 +47,7 @@ class Axis402:
     Hooks a drive family's axis overrides (the defaults are the behaviour described above):
 
     - :meth:`register_objects` -- the axis' dynamic objects (extend: call super() first);
-    - :meth:`motion_parameters` -- derived motion parameters (ramps, limits, windows);
+    - :meth:`derive_motion_parameters` -- derived motion parameters (ramps, limits, windows);
     - :meth:`load_boot_values` -- what the drive reads only at power-on / reset node;
     - :meth:`supports`, :meth:`check_mode`, :meth:`set_mode`, :meth:`mode_for` -- which modes,
       when a mode change takes effect, and the mode objects;
@@ -136,12 +136,16 @@ class Axis402:
 
     # ---- limits and profile parameters ---------------------------------------------
     def motion_parameters(self) -> dict[str, Any]:
-        """Hook: derived motion parameters, cached until one of their objects is written
+        """The derived motion parameters, cached until one of their objects is written
         (:meth:`invalidate_parameters`)."""
         cache = self._cache
         if cache is None:
-            cache = self._cache = derive_motion_parameters(self.param)
+            cache = self._cache = self.derive_motion_parameters()
         return cache
+
+    def derive_motion_parameters(self) -> dict[str, Any]:
+        """Hook: the motion parameters from the axis' objects (extend: update super()'s)."""
+        return derive_motion_parameters(self.param)
 
     def invalidate_parameters(self, value: Any = None) -> None:
         """A parameter object changed: derive the motion parameters again when next needed."""

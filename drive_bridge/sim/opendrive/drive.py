@@ -87,42 +87,42 @@ class SimOpenDrive(SimulatedSlave):
     @property
     def speed_rpm(self) -> float:
         """Actual motor speed, rpm."""
-        with self._lock:
+        with self.lock:
             return self.motor.speed * 60.0 / TWO_PI
 
     @property
     def torque_nm(self) -> float:
-        with self._lock:
+        with self.lock:
             return self.motor.torque
 
     @property
     def angle_rad(self) -> float:
         """Mechanical angle since power-on (not wrapped)."""
-        with self._lock:
+        with self.lock:
             return self.motor.angle
 
     @property
     def speed_reference_rpm(self) -> float:
         """The speed reference the drive applies now (0 without C52 = 1)."""
-        with self._lock:
+        with self.lock:
             return self._speed_reference() * 60.0 / TWO_PI
 
     @property
     def run_input(self) -> bool:
         """Logic input function RUN (0x2010[0] / 0x2021 bit 0): terminal AND fieldbus AND serial."""
-        with self._lock:
+        with self.lock:
             return bool(self.logic.standard & 1)
 
     @property
     def running(self) -> bool:
         """The inverter drives the motor: RUN high and no alarm."""
-        with self._lock:
+        with self.lock:
             return self._running()
 
     @property
     def run_channels(self) -> dict[str, bool]:
         """RUN of each channel (an unassigned terminal channel counts as high)."""
-        with self._lock:
+        with self.lock:
             terminal = self.logic.terminal_channel(o.RUN)
             return {'terminal': terminal is None or terminal, 'fieldbus': bool(self.logic.fieldbus & 1),
                     'serial': bool(self.logic.serial & 1)}
@@ -130,55 +130,55 @@ class SimOpenDrive(SimulatedSlave):
     @property
     def logic_inputs(self) -> int:
         """The 32 standard logic input functions (0x2021)."""
-        with self._lock:
+        with self.lock:
             return self.logic.standard
 
     @property
     def application_inputs(self) -> int:
         """The application logic input functions I29..I60 (0x2022)."""
-        with self._lock:
+        with self.lock:
             return self.logic.application_state
 
     @property
     def alarms(self) -> int:
         """0x2018: bit n = alarm An."""
-        with self._lock:
+        with self.lock:
             return self.alarm_state.active
 
     @property
     def alarm_enable(self) -> int:
         """0x2019 (= P163)."""
-        with self._lock:
+        with self.lock:
             return self.tab_par[P163] & 0xFFFF
 
     def parameter(self, number: int) -> int:
         """Pn in internal units (unsigned for unsigned parameters)."""
-        with self._lock:
+        with self.lock:
             return _internal(PARAMETERS.get(number), self.tab_par[number])
 
     def connection(self, number: int) -> int:
-        with self._lock:
+        with self.lock:
             return _internal(CONNECTIONS.get(number), self.tab_con[number])
 
     def saved_parameter(self, number: int) -> int:
         """Pn as kept in the non-volatile memory."""
-        with self._lock:
+        with self.lock:
             return _internal(PARAMETERS.get(number), self.memory.par[number])
 
     def saved_connection(self, number: int) -> int:
-        with self._lock:
+        with self.lock:
             return _internal(CONNECTIONS.get(number), self.memory.con[number])
 
     # ---- test-side switches ------------------------------------------------------------------------
     def set_terminal(self, number: int, on: bool) -> None:
         """Terminal input ``number`` (1..8) high or low (0x2013 bit number - 1)."""
-        with self._lock:
+        with self.lock:
             self.logic.set_terminal(number, on)
             self._logic_changed()
 
     def set_terminal_input(self, function: int, on: bool) -> None:
         """Every terminal input assigned to logic function ``function`` (C1..C8) high or low."""
-        with self._lock:
+        with self.lock:
             numbers = self.logic.terminals_of(function)
             if not numbers:
                 raise ValueError(f'no terminal input is assigned to logic function {function} (C1..C8)')
@@ -188,7 +188,7 @@ class SimOpenDrive(SimulatedSlave):
 
     def set_serial_input(self, function: int, on: bool) -> None:
         """The serial-line channel of standard logic function ``function`` (RUN starts high)."""
-        with self._lock:
+        with self.lock:
             self.logic.set_serial(function, on)
             self._logic_changed()
 
@@ -197,7 +197,7 @@ class SimOpenDrive(SimulatedSlave):
         (a reset does not clear it before), else the cause is gone at once."""
         if not 0 <= number <= 15:
             raise ValueError(f'alarm A{number}: the drive has A0..A15')
-        with self._lock:
+        with self.lock:
             if persistent:
                 self.alarm_state.causes |= 1 << number
             if self.powered:
@@ -206,7 +206,7 @@ class SimOpenDrive(SimulatedSlave):
 
     def clear_alarm_cause(self, number: int) -> None:
         """The cause of alarm A``number`` is gone: the next alarm reset clears it."""
-        with self._lock:
+        with self.lock:
             self.alarm_state.causes &= ~(1 << number)
 
     # ---- objects -------------------------------------------------------------------------------
@@ -302,7 +302,7 @@ class SimOpenDrive(SimulatedSlave):
 
     def power_on(self) -> None:
         """Power-on: the communication objects come from the non-volatile memory."""
-        with self._lock:
+        with self.lock:
             if not self.powered:
                 self.memory.load_communication()
         super().power_on()
@@ -380,7 +380,7 @@ class SimOpenDrive(SimulatedSlave):
             self.alarm_state.causes &= ~(1 << self.options['guarding_alarm'])  # an alarm reset clears it now
 
     def detach(self) -> None:
-        with self._lock:
+        with self.lock:
             self.remote_tpdos.detach()
         super().detach()
 

@@ -140,12 +140,12 @@ class SimS120(SimDrive402):
 
     def parameter(self, do: int, number: int, index: int = 0) -> Any:
         """Parameter ``number`` [``index``] of drive object ``do`` (1: the Control Unit) now."""
-        with self._lock:
+        with self.lock:
             return self.window.parameter(do, number, index)
 
     def saved_parameter(self, do: int, number: int, index: int = 0) -> Any:
         """What the memory card holds for the parameter (loaded at power-on and reboot)."""
-        with self._lock:
+        with self.lock:
             axis = self.axis_of(self.drive_object(do))
             return (self.cu if axis is None else axis.parameters).saved[number][index]
 
@@ -154,7 +154,7 @@ class SimS120(SimDrive402):
         self._timers.call_later(self.options['reboot_delay'], self._reboot)
 
     def _reboot(self) -> None:
-        with self._lock:
+        with self.lock:
             if not self.powered:
                 return
             self._load_saved = True
@@ -191,18 +191,18 @@ class SimS120(SimDrive402):
         (``manufacturer`` is ignored: the S120 fills bytes 3..7 itself.)"""
         if reaction not in REACTIONS:
             raise ValueError(f'fault reaction {reaction!r}: one of {", ".join(REACTIONS)}')
-        with self._lock:
+        with self.lock:
             self.active.add(Message(number, self.drive_object(do), True, value, persistent, reaction))
 
     def inject_alarm(self, number: int, do: int = 0, *, value: int = 0) -> None:
         """Alarm A``number`` on drive object ``do`` until :meth:`clear_cause`: statusword bit 7; in the
         CAN range 8700..8799 also EMCY, 0x1001 and 0x1003."""
-        with self._lock:
+        with self.lock:
             self.active.add(Message(number, self.drive_object(do), False, value, True))
 
     def clear_cause(self, number: int | None = None, do: int | None = None) -> None:
         """The cause of the matching messages is gone: alarms disappear, faults can be acknowledged."""
-        with self._lock:
+        with self.lock:
             target = None if do is None else self.drive_object(do)
 
             def match(m: Message) -> bool:
@@ -214,7 +214,7 @@ class SimS120(SimDrive402):
             self.active.remove(lambda m: match(m) and not m.fault)
 
     def clear_fault_cause(self, axis: int | None = None) -> None:
-        with self._lock:
+        with self.lock:
             for ax in self.s120_axes if axis is None else (self.s120_axes[axis],):
                 for m in self.messages:
                     if m.fault and m.do == ax.do_number:
@@ -284,14 +284,14 @@ class SimS120(SimDrive402):
 
     # -- life cycle --------------------------------------------------------------------------------------
     def power_on(self) -> None:
-        with self._lock:
+        with self.lock:
             if not self.powered:
                 self._load_saved = self._power_cycle = True
             super().power_on()
 
     def set_address_switch(self, value: int) -> None:
         """Turn the Control Unit's address switch (0..255): read at the next POWER ON (module address)."""
-        with self._lock:
+        with self.lock:
             self.address_switch.set(value)
 
     def _read_node_id(self) -> None:
@@ -338,7 +338,7 @@ class SimS120(SimDrive402):
     # -- inspection (tests) -----------------------------------------------------------------------------
     def view(self, do: int = 0) -> DriveObjectView:
         """A snapshot of drive object ``do`` (0: the first axis; 1: the Control Unit)."""
-        with self._lock:
+        with self.lock:
             return drive_object_view(self, do)
 
     @property
@@ -348,10 +348,10 @@ class SimS120(SimDrive402):
     @property
     def active_messages(self) -> tuple[str, ...]:
         """'F07900@3', 'A08751@4', ... in order of occurrence."""
-        with self._lock:
+        with self.lock:
             return tuple(f'{m.label}@{m.do}' for m in self.messages)
 
     @property
     def valid_rpdos(self) -> int:
-        with self._lock:
+        with self.lock:
             return self.pdo.valid_rpdos  # type: ignore[attr-defined, no-any-return]

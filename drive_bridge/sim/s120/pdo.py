@@ -90,7 +90,7 @@ class S120PdoEngine(PdoEngine):
         if self.mapping_locked(pdo, values[key(pdo.comm, 1)]):
             raise SdoAbortedError(ABORT_STATE)
         if value != 0:
-            self._check_entry(pdo, value)
+            self.check_entry(pdo, value)
         # sub 0 follows the entries unless a CiA 301 master set it to 0 to write them
         self._follow = index if self.sub0_read_only or values[key(index, 0)] != 0 else None
 

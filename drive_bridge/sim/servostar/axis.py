@@ -144,14 +144,12 @@ class ServostarAxis(Axis402):
             return super().param(index, subindex, 0) * self.units.velocity_factor()
         return super().param(index, subindex, default)
 
-    def motion_parameters(self) -> dict[str, Any]:
-        cache = self._cache
-        if cache is None:
-            cache = super().motion_parameters()
-            speed_mode = self.mode_impl.code in (SPEED_DIGITAL, PROFILE_VELOCITY, JOG)
-            cache.update(self.units.ramps(cache['profile_velocity'], speed_mode),
-                         interpolation_period=self.period, software_limits=None, fe_window=0xFFFFFFFF,
-                         torque_limit=2000.0)
+    def derive_motion_parameters(self) -> dict[str, Any]:
+        cache = super().derive_motion_parameters()
+        speed_mode = self.mode_impl.code in (SPEED_DIGITAL, PROFILE_VELOCITY, JOG)
+        cache.update(self.units.ramps(cache['profile_velocity'], speed_mode),
+                     interpolation_period=self.period, software_limits=None, fe_window=0xFFFFFFFF,
+                     torque_limit=2000.0)
         return cache
 
     def profile_acceleration(self) -> float:
@@ -345,7 +343,7 @@ class ServostarAxis(Axis402):
         """PTBASE and PRBASE take effect at power-on / restart only [5.1]."""
         self.period = max(1, int(self._values.get(key(PTBASE, VALUE), 4))) * SAMPLE
         self.units.prbase = int(self._values.get(key(PRBASE, VALUE), 20))
-        self._cache = None
+        self.invalidate_parameters()
 
     def reset(self) -> None:
         self._pending_mode = None

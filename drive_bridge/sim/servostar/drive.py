@@ -305,7 +305,7 @@ class SimServostar(SimDrive402):
         restarts the drive; 2 emergency ramp and motion blocked until bit 11; 3/5 the EMCY pair
         only. ``persistent``: it comes back after every restart / acknowledge until
         :meth:`clear_fault_cause`."""
-        with self._lock:
+        with self.lock:
             category = category_of(code) if category is None else category
             if persistent:
                 self._persistent[code] = category
@@ -314,7 +314,7 @@ class SimServostar(SimDrive402):
 
     def clear_fault_cause(self, axis: int | None = None, code: int | None = None) -> None:
         """The persistent cause of ``code`` (all if None) is gone: a reset clears it again."""
-        with self._lock:
+        with self.lock:
             if code is None:
                 self._persistent.clear()
             else:
@@ -322,7 +322,7 @@ class SimServostar(SimDrive402):
 
     def set_hardware_enable(self, on: bool = True) -> None:
         """The hardware enable input (transition 3 needs it; off switches the output stage off)."""
-        with self._lock:
+        with self.lock:
             self.hardware_enable = bool(on)
             if not on:
                 self.axis_star.stage_off()
@@ -330,7 +330,7 @@ class SimServostar(SimDrive402):
 
     def set_dc_link(self, on: bool = True) -> None:
         """DC-link voltage present (statusword bit 4 = 0); off switches the output stage off."""
-        with self._lock:
+        with self.lock:
             self.dc_link = bool(on)
             if not on:
                 self.axis_star.stage_off()
@@ -339,30 +339,30 @@ class SimServostar(SimDrive402):
     # -- views for tests --------------------------------------------------------------------------------
     @property
     def status_register(self) -> int:
-        with self._lock:
+        with self.lock:
             return self.axis_star.status_register()
 
     @property
     def errors(self) -> dict[str, list[int]]:
         """Pending error codes by category class: 'cat1' (restart needed), 'cat2' (bit 11)."""
-        with self._lock:
+        with self.lock:
             return {source: self.star_emcy.codes(source) for source in ('cat1', 'cat2')}
 
     @property
     def ascii_log(self) -> list[tuple[str, str]]:
-        with self._lock:
+        with self.lock:
             return list(self.terminal.log)
 
     def selected_pdos(self) -> dict[str, list[int]]:
         """Library numbers per channel: {'rpdo': [ch1..ch4], 'tpdo': [...]}."""
-        with self._lock:
+        with self.lock:
             values = self.store.values
             return {'rpdo': [values[key(RPDO_SELECT + n)] for n in range(4)],
                     'tpdo': [values[key(TPDO_SELECT + n)] for n in range(4)]}
 
     def mapping(self, transmit: bool, channel: int) -> list[int]:
         """The mapping entries of a channel as its 0x16xx / 0x1Axx shows them."""
-        with self._lock:
+        with self.lock:
             index = (0x1A00 if transmit else 0x1600) + channel - 1
             values = self.store.values
             return [values[key(index, s)] for s in range(1, values[key(index, 0)] + 1)]
