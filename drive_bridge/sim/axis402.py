@@ -1,5 +1,5 @@
-"""One simulated CiA 402 axis: its objects, modes, faults and statusword, and the motion model
-stepping. Its parts: the state machine with its stop ramps and statusword
+"""One simulated CiA 402 axis: its objects, modes, faults, limits and life cycle, and the hooks
+a family's axis overrides. Its parts: the state machine with its stop ramps and statusword
 (:mod:`~drive_bridge.sim.devicecontrol`) and the control function with the following error
 (:mod:`~drive_bridge.sim.controlloop`); its motion parameters are derived in
 :mod:`~drive_bridge.sim.axisparams`.
@@ -22,18 +22,13 @@ from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import SUPPORT_BITS, Mode
-from drive_bridge.cia402.statemachine import (
-    State,
-)
+from drive_bridge.cia402.statemachine import State
 from drive_bridge.sim.axisparams import CACHED_PARAMETERS, derive_motion_parameters
 from drive_bridge.sim.controlloop import STANDSTILL, ControlLoop
 from drive_bridge.sim.devicecontrol import ENERGISED, DeviceControl, StopRamp
 from drive_bridge.sim.interfaces import AxisDrive
 from drive_bridge.sim.ipbuffer import IpBuffer
-from drive_bridge.sim.motion import (
-    clamp,
-    wrap_int32,
-)
+from drive_bridge.sim.motion import clamp, wrap_int32
 from drive_bridge.sim.opmodes import IMPLEMENTED_MODES, OpMode, make_mode
 from drive_bridge.sim.store import key
 
