@@ -1,5 +1,6 @@
 """The CANopen master of one bus: owns the bus, the canopen Network, the nodes and axes,
-the cycle (SYNC) and its supervision (boot, retries, heartbeats: master/supervision.py).
+the cycle (SYNC and the set-points around it: master/cycle.py) and its supervision (boot,
+retries, heartbeats: master/supervision.py), and serves SDO, NMT and parameters.
 
 Threads: canopen's Notifier (frames in: TPDO, heartbeat, EMCY, SDO responses), the
 cycle (SYNC, then the RPDOs for the next SYNC once the TPDOs are in), the supervisor
@@ -28,17 +29,17 @@ from drive_bridge.joint import AxisSnapshot, DriveState, JointDriver
 from drive_bridge.master.boot import boot_node
 from drive_bridge.master.bus import BusHealth, FrameListener, FrameTap, TappedBus, open_bus
 from drive_bridge.master.busload import BusTraffic, TrafficCounter
+from drive_bridge.master.cycle import Cycle
 from drive_bridge.master.errors import ObjectAddress, SdoError
 from drive_bridge.master.events import BusEvent, EventKind, Level
 from drive_bridge.master.feedback import CycleFeedback
 from drive_bridge.master.flood import UnknownFrames
 from drive_bridge.master.kernelsync import KernelSync, require_kernel_periodic
-from drive_bridge.master.node import BootState, NodeRuntime, NodeSnapshot
-from drive_bridge.master.realtime import SwitchInterval, make_realtime
+from drive_bridge.master.node import NodeRuntime, NodeSnapshot
 from drive_bridge.master.run_on import RunOnStop
 from drive_bridge.master.sdo import AUTO, SdoChannel, SdoPlain
 from drive_bridge.master.supervision import Supervisor
-from drive_bridge.master.sync import SYNC_COB_ID, SyncProducer, SyncStats
+from drive_bridge.master.sync import SyncProducer, SyncStats
 from drive_bridge.model import BusConfig
 
 log = logging.getLogger('drive_bridge.master')
@@ -73,7 +74,6 @@ class Master:
         self.network = canopen.Network()
         self.unknown_frames = UnknownFrames(self.network.subscribers)  # counted, reported by the supervisor
         self.tap.add_listener(self.unknown_frames)
-        self._switch_interval = SwitchInterval()
         self.nodes: dict[str, NodeRuntime] = {}
         self.axes: dict[str, JointDriver] = {}
         self._by_id: dict[int, NodeRuntime] = {}
@@ -83,24 +83,23 @@ class Master:
         self._event_listeners: list[Callable[[BusEvent], None]] = []
         self._emcy_listeners: list[Callable[[EmcyEvent], None]] = []
         self._safety_emcy_listeners: list[Callable[[EmcyEvent], None]] = []
-        self._cycle_listeners: list[Callable[[int], None]] = []
         self.feedback = CycleFeedback()
-        self.sync: SyncProducer | None = None
-        self.kernel_sync: KernelSync | None = None  # sync_producer: kernel
         self._heartbeat_task: canopen.network.PeriodicMessageTask | None = None
         self._stop = threading.Event()
         self._supervisor: threading.Thread | None = None
         self.events: list[BusEvent] = []  # recent events (bounded)
         self.started = False
-        self._cycle_count = 0  # SYNCs seen when another node produces them
         self.bus_reopens = 0
         self._run_on = RunOnStop(lambda node, level, text: self._emit(
             EventKind.RUN_ON_STOP, Level.ERROR if level == 'error' else Level.WARN, text, node))
+        self.cycle = Cycle(config.master, self.network, nodes=self.nodes, axes=self.axes, feedback=self.feedback,
+                           run_on=self._run_on, emit=self._emit,
+                           bus=lambda: self.bus, bus_down=lambda: self.bus_down)
         self._supervision = Supervisor(
             nodes=self.nodes, axes=self.axes, channel=str(config.bus.channel), stop=self._stop, emit=self._emit,
             boot_node=self._boot_node, bus_health=lambda: self.bus.health() if self.bus is not None else None,
-            reopen_bus=self._reopen_bus, on_bus_down=functools.partial(self._kernel_sync, False),
-            on_bus_back=functools.partial(self._kernel_sync, True), sync_count=self._sync_count,
+            reopen_bus=self._reopen_bus, on_bus_down=functools.partial(self.cycle.run_kernel_sync, False),
+            on_bus_back=functools.partial(self.cycle.run_kernel_sync, True), sync_count=self.cycle.count,
             unknown_frames=self.unknown_frames.report, run_on=self._run_on)
 
     # -- listeners ---------------------------------------------------------------------------
@@ -122,7 +121,7 @@ class Master:
 
     def add_cycle_listener(self, listener: Callable[[int], None]) -> None:
         """Called after each cycle's SYNC and set-points (cycle thread, keep it short)."""
-        self._cycle_listeners = [*self._cycle_listeners, listener]
+        self.cycle.add_listener(listener)
 
     def add_feedback_listener(self, listener: Callable[[], None]) -> None:
         """Called once per cycle when every available node's synchronous TPDOs answering the
@@ -174,14 +173,14 @@ class Master:
                 self._emit(EventKind.CONFIGURED, Level.INFO,
                            f'node {node.node_id} ({node.name}): {node_cfg.pdo_summary}', node)
             node.attach_guard()
-            node.sync_count = self._sync_count
+            node.sync_count = self.cycle.count
             node.on_setpoint_refused = functools.partial(self._setpoint_refused, node)
             for axis_cfg in node_cfg.axes:
                 self.axes[axis_cfg.joint] = node.family_node.create_joint_driver(node, axis_cfg, node_cfg.timeouts,
                                                                                  cfg.master.cycle_period)
         self.feedback.watch(self.network, self.nodes.values())
         self.unknown_frames.active = True
-        self._start_cycle()
+        self.cycle.start()
         if cfg.master.heartbeat_producer_ms:
             self._heartbeat_task = self.network.send_periodic(
                 0x700 + cfg.master.node_id, b'\x05', cfg.master.heartbeat_producer_ms / 1000.0)
@@ -202,49 +201,6 @@ class Master:
                     raw.shutdown()
                 raise
 
-    def _start_cycle(self) -> None:
-        master = self.config.master
-        def on_error(text: str) -> None:
-            if not self.bus_down and not (self.bus is not None and self.bus.health().failing):
-                self._emit(EventKind.ERROR, Level.ERROR, text)  # a failing bus: once, as BUS_ERROR
-        if master.sends_sync and master.sync_producer in ('external', 'kernel'):
-            self._cycle_count = 0  # the cycle follows each SYNC received (kernel: looped back)
-            self.network.subscribe(SYNC_COB_ID, self._on_external_sync)
-            if master.sync_producer == 'kernel' and self.bus is not None:
-                self.kernel_sync = KernelSync(self.bus, master.sync_period)
-                self.kernel_sync.start()
-            return
-        self.sync = SyncProducer(self.network.send_message, master.cycle_period, send_sync=master.sends_sync,
-                                 on_error=on_error, feedback=self.feedback.wait if master.sends_sync else None,
-                                 sync_window=master.sync_window if master.sends_sync else None,
-                                 on_start=self._realtime_cycle if master.realtime_priority is not None else None)
-        self.sync.add_at_sync(self.feedback.arm)
-        self.sync.add_before_sync(self._before_sync)
-        self.sync.add_after_sync(self._after_sync)
-        self.sync.start()
-
-    def _realtime_cycle(self) -> None:
-        """In the cycle thread, before its first SYNC: SCHED_FIFO at master.realtime_priority."""
-        priority = self.config.master.realtime_priority
-        assert priority is not None
-        self._switch_interval.lower()
-        problem = make_realtime(priority)
-        if problem is not None:
-            self._emit(EventKind.CONFIGURED, Level.WARN,
-                       f'master.realtime_priority {priority}: SCHED_FIFO refused for the cycle thread '
-                       f'({problem}); it runs at normal priority')
-        else:
-            self._emit(EventKind.CONFIGURED, Level.INFO,
-                       f'cycle thread runs SCHED_FIFO at priority {priority} (master.realtime_priority)')
-
-    def _on_external_sync(self, _can_id: int, _data: bytearray, _timestamp: float) -> None:
-        """Another node (or the kernel) produced SYNC: send the RPDOs for the next one right away."""
-        cycle = self._cycle_count
-        self._cycle_count += 1
-        self.feedback.arm(cycle)
-        self._after_sync(cycle)
-        self._before_sync(cycle + 1)
-
     def stop(self, stop_timeout: float = 1.0) -> None:
         """Quick-stop enabled axes (bounded wait), then stop SYNC, heartbeat and the bus."""
         if not self.started:
@@ -254,11 +210,7 @@ class Master:
         if self._supervisor is not None:
             self._supervisor.join(timeout=2)
         self._supervision.join_boots(timeout=5)
-        if self.sync is not None:
-            self.sync.stop()
-        self._switch_interval.restore()
-        if self.kernel_sync is not None:
-            self.kernel_sync.stop()
+        self.cycle.stop()
         if self._heartbeat_task is not None:
             self._heartbeat_task.stop()
         for node in self.nodes.values():
@@ -273,32 +225,15 @@ class Master:
     def __exit__(self, *exc: object) -> None:
         self.stop()
 
-    # -- cycle -------------------------------------------------------------------------------
-    def _before_sync(self, cycle: int) -> None:
-        now = self.sync.scheduled_time if self.sync is not None else time.time()
-        for node in self.nodes.values():
-            if self._run_on.due(node):  # a drive that runs on by itself, lost while it sends: its stop
-                if node.family_node.stop_run_on(by_sdo=False):
-                    self._run_on.at_rest(node)
-                for cob_id, data in node.process.frames():
-                    self.network.send_message(cob_id, data)
-                continue
-            if not node.available and node.boot_state is not BootState.STALE:
-                continue  # a stale node is still sent to: its axes are held by HALT
-            axes = [self.axes[a.joint] for a in node.config.axes]
-            if not all(axis.ready for axis in axes):
-                continue  # no statusword yet: no controlword can be decided safely
-            for axis in axes:
-                axis.on_cycle(now)
-            for cob_id, data in node.process.frames():
-                self.network.send_message(cob_id, data)
+    @property
+    def sync(self) -> SyncProducer | None:
+        """The master's SYNC producer (None when another node or the kernel produces SYNC)."""
+        return self.cycle.sync
 
-    def _after_sync(self, cycle: int) -> None:
-        for listener in self._cycle_listeners:
-            listener(cycle)
-
-    def _sync_count(self) -> int:
-        return self.sync.cycles if self.sync is not None else self._cycle_count
+    @property
+    def kernel_sync(self) -> KernelSync | None:
+        """The kernel's periodic SYNC (``sync_producer: kernel``)."""
+        return self.cycle.kernel_sync
 
     # -- supervision (master/supervision.py) ----------------------------------------------------
     def _boot_node(self, node: NodeRuntime) -> None:
@@ -317,10 +252,6 @@ class Master:
         self.bus_reopens += 1
         log.warning('bus %s reopened (attempt %d)', cfg.channel, self.bus_reopens)
         return True
-
-    def _kernel_sync(self, run: bool) -> None:
-        if self.kernel_sync is not None:
-            (self.kernel_sync.start if run else self.kernel_sync.stop)()
 
     @property
     def bus_down(self) -> bool:

@@ -13,14 +13,17 @@ The bridge reaches them only through CAN frames; tests may inspect their state.
 - :mod:`drive_bridge.sim.testing` -- test-side master helpers (SimBench, FrameLog, SyncLoop)
 - ``python -m drive_bridge.sim.bench`` -- per-SYNC cost of one simulated drive
 
-Modules: slave (CiA 301 node), sdo (SDO server access), pdo (PDO engine), nmt (NMT
+Modules: slave (CiA 301 node), sdo (SDO server access), pdo (PDO engine), pdocodec (a
+PDO's mapping to bytes and back), pdoparams (CiA 301 rules of PDO parameter writes), nmt (NMT
 states, heartbeat consumer), guarding (node guarding, life guarding), commobjects
 (CiA 301 write rules of the communication objects), emcy (EMCY, 0x1001, 0x1003),
 store (typed OD values), timers (per-slave clock thread), synccost (SYNC handling
 time), faults (fault-injection switches), options (simulation options), interfaces
-(what a mode uses of its axis, an axis of its drive), axis402 (402 state machine),
-opmodes (modes of operation), ipbuffer (IP buffer), motion (pure motion model),
-drive402, akd/ (Kollmorgen AKD package), ascii_channel (the AKD's ASCII channel),
+(what a mode uses of its axis, an axis of its drive), axis402 (the 402 axis), its parts
+devicecontrol (402 state machine, stop ramps, statusword) and controlloop (model step,
+following error), axisparams (derived motion parameters), opmodes (modes of operation:
+opmode, profilemodes, homingmode, cyclicmodes), ipbuffer (IP buffer), motion (pure motion
+model), drive402, akd/ (Kollmorgen AKD package), ascii_channel (the AKD's ASCII channel),
 registry, bus.
 
 A family's simulator subclasses SimulatedSlave / SimDrive402 / Axis402 / PdoEngine and

@@ -2,7 +2,8 @@
 a mode of operation of its axis (:class:`ModeAxis`), an axis of its drive (:class:`AxisDrive`).
 
 Declared here, below all of them, so imports run one way only:
-drive402 -> axis402 -> opmodes -> interfaces (never back, not even for type hints).
+drive402 -> axis402 -> controlloop -> devicecontrol -> opmode -> interfaces, and axis402 ->
+opmodes -> the modes -> opmode (never back, not even for type hints).
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.sim.nmtslave import NmtSlave
 from drive_bridge.sim.parts import SlaveNode
-from drive_bridge.sim.pdo import PDO_PARAMETERS
+from drive_bridge.sim.pdoparams import PDO_PARAMETERS
 from drive_bridge.sim.sdo import SimLocalNode, decode_checked, expedited_download_of, read_checked
 from drive_bridge.sim.store import key
 from drive_bridge.sim.timers import TimerThread

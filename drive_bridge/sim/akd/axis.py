@@ -38,7 +38,8 @@ from drive_bridge.sim.akd.objects import (
     PVT,
 )
 from drive_bridge.sim.akd.pvt import AkdInterpolation, AkdIpBuffer, PvtPoint
-from drive_bridge.sim.axis402 import ENERGISED, Axis402
+from drive_bridge.sim.axis402 import Axis402
+from drive_bridge.sim.devicecontrol import ENERGISED
 from drive_bridge.sim.interfaces import AxisDrive
 from drive_bridge.sim.motion import wrap_int32
 from drive_bridge.sim.opmodes import Homing, OpMode, make_mode
@@ -95,19 +96,17 @@ class AkdAxis(Axis402):
                 return super().param(index, 0, default) or self.profile_acceleration()
         return super().param(index, subindex, default)
 
-    def motion_parameters(self) -> dict[str, Any]:
-        cache = self._cache
-        if cache is None:
-            cache = super().motion_parameters()
-            p = self.param
-            acc = p(obj.PROFILE_ACCELERATION, default=0) or p(DRV_ACC, default=0)
-            dec = p(obj.PROFILE_DECELERATION, default=0) or p(DRV_DEC, default=0)
-            quick = p(CS_DEC, 1, default=0) or dec
-            window = cache['fe_window']
-            cache.update(acceleration=max(1.0, float(acc)), deceleration=max(1.0, float(dec)),
-                         quick_stop_deceleration=max(1.0, float(quick)), max_deceleration=max(1.0, float(quick)),
-                         interpolation_period=self._period, software_limits=self._boot_limits,
-                         fe_window=0xFFFFFFFF if window == 0 else window)
+    def derive_motion_parameters(self) -> dict[str, Any]:
+        cache = super().derive_motion_parameters()
+        p = self.param
+        acc = p(obj.PROFILE_ACCELERATION, default=0) or p(DRV_ACC, default=0)
+        dec = p(obj.PROFILE_DECELERATION, default=0) or p(DRV_DEC, default=0)
+        quick = p(CS_DEC, 1, default=0) or dec
+        window = cache['fe_window']
+        cache.update(acceleration=max(1.0, float(acc)), deceleration=max(1.0, float(dec)),
+                     quick_stop_deceleration=max(1.0, float(quick)), max_deceleration=max(1.0, float(quick)),
+                     interpolation_period=self._period, software_limits=self._boot_limits,
+                     fe_window=0xFFFFFFFF if window == 0 else window)
         return cache
 
     def quick_stop_deceleration(self) -> float:
@@ -270,7 +269,7 @@ class AkdAxis(Axis402):
         self._boot_limits = (float(low), float(high)) if low < high else None
         self._period = self._committed_period()
         self._period_written.clear()
-        self._cache = None
+        self.invalidate_parameters()
 
     def reset(self) -> None:
         self._pending_mode = None
@@ -304,6 +303,6 @@ class AkdAxis(Axis402):
             bits |= 1 << 15
         if state is State.QUICK_STOP_ACTIVE:
             bits |= 1 << 19
-        if self._stop is not None and not self._stop.finished:
+        if self.control.stop is not None and not self.control.stop.finished:
             bits |= 1 << 31
         return bits

@@ -94,14 +94,14 @@ class SimAkd(SimDrive402):
     # -- inspection and test switches ----------------------------------------------------------------
     def set_remote(self, on: bool = True) -> None:
         """FBUS.REMOTE: False = another channel (WorkBench, Telnet) has control (bit 9 = 0)."""
-        with self._lock:
+        with self.lock:
             self.remote = bool(on)
             self.pdo.poll_events()
 
     @property
     def warnings(self) -> list[int]:
         """EMCY codes of the active warnings (n704 = 0x8584, n705 = 0x8585)."""
-        with self._lock:
+        with self.lock:
             return sorted(self.axis_akd.warnings)
 
     # -- objects -------------------------------------------------------------------------------------

@@ -12,7 +12,8 @@ from canopen.objectdictionary import ODVariable
 from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.sim.akd.objects import ABORT_INVALID_VALUE, ABORT_STATE, CHANGE_MASKS
-from drive_bridge.sim.pdo import COB_INVALID, Pdo, PdoEngine
+from drive_bridge.sim.pdo import PdoEngine
+from drive_bridge.sim.pdocodec import COB_INVALID, Pdo
 
 
 class AkdPdoEngine(PdoEngine):

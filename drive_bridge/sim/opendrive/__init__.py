@@ -6,7 +6,9 @@ CiA 402 profile, after the drive's CANopen appendix as summarised in shared/driv
 Modules: objects (indices, codes, abort choices), the family's parameter_table (the P / C table
 and the format word layout), emcy (EMCY and 0x1003), pdo (PDO rules), motor (the motor model), logic (the
 logic input functions and their channels), quantities (actual values and their representation
-words), options, drive (the node: :class:`SimOpenDrive`, registered as the ``opendrive``
+words), references (the speed and torque references), alarms (A0..A15), memory (the non-volatile
+memory, 0x1010 / 0x1011), formats (the format domains), remote (RTR-only TPDOs), options, drive
+(the node: :class:`SimOpenDrive`, composed of those parts, registered as the ``opendrive``
 simulator on import).
 
 Communication [2]:

@@ -3,9 +3,11 @@ constants the CAN appendix does not give, its firmware's compile-time choices, a
 where the appendix leaves room (package docstring)."""
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
+from typing import Any
 
-from drive_bridge.sim.opendrive.quantities import SPEED_DEFAULT, TORQUE_DEFAULT
+from drive_bridge.sim.opendrive.quantities import SPEED_DEFAULT, TORQUE_DEFAULT, full_scale
 from drive_bridge.sim.options import SLAVE_OPTIONS, OptionSpec
 
 GUARDING_FIRMWARE = ('none', 'stop', 'alarm')  # life guarding reactions a firmware may be compiled with
@@ -74,3 +76,19 @@ OPENDRIVE_OPTIONS: dict[str, OptionSpec] = {
                                0, 65535),
     'tde_key': OptionSpec('tde_key', int, 1, 'value of P99 that unlocks the TDE parameters', 0, 65535),
 }
+
+
+def check_options(name: str, options: Mapping[str, Any]) -> None:
+    """What the option specs cannot check alone: distinct actual-value elements, and
+    representation words the appendix's reading can decode."""
+    elements = [options['actual_speed_element'], options['actual_torque_element']]
+    if options['position_element'] >= 0:
+        elements.append(options['position_element'])
+    if len(set(elements)) != len(elements):
+        raise ValueError(f'simulation options of node {name!r}: actual_speed_element, '
+                         f'actual_torque_element and position_element must differ')
+    for option in ('actual_speed_representation', 'actual_torque_representation'):
+        try:
+            full_scale(options[option])
+        except ValueError as error:
+            raise ValueError(f'simulation option {option!r} of node {name!r}: {error}') from None

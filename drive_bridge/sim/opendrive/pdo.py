@@ -14,7 +14,9 @@ from typing import Any
 from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.sim.opendrive.objects import ABORT_INVALID_VALUE
-from drive_bridge.sim.pdo import COB_NO_RTR, Pdo, PdoEngine
+from drive_bridge.sim.pdo import PdoEngine
+from drive_bridge.sim.pdocodec import Pdo
+from drive_bridge.sim.pdoparams import COB_NO_RTR
 from drive_bridge.sim.store import key
 
 RTR_SAMPLED, RTR_NOW, EVENT_TIMER = 252, 253, 254

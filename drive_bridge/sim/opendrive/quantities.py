@@ -17,13 +17,42 @@ the torque's ``actual_torque_representation`` (default 0x0002); the position is 
 """
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+from typing import Any
+
 from drive_bridge.families.opendrive.representation import DIRECT, PERCENT_4095, full_scale
+from drive_bridge.sim.opendrive.motor import Motor
+from drive_bridge.sim.opendrive.objects import PULSES_PER_REVOLUTION
 
 SPEED_DEFAULT = 0x00E1  # direct / 2^14: 16384 = 1.0
 TORQUE_DEFAULT = PERCENT_4095
-__all__ = ['DIRECT', 'SPEED_DEFAULT', 'TORQUE_DEFAULT', 'encode', 'full_scale']
+__all__ = ['DIRECT', 'SPEED_DEFAULT', 'TORQUE_DEFAULT', 'actual_value', 'encode', 'full_scale', 'representation']
 
 
 def encode(fraction: float, word: int) -> int:
     """``fraction`` of the base (1.0 = 100 %) as the INT16 element the word describes (saturated)."""
     return max(-32768, min(32767, int(round(fraction * full_scale(word)))))
+
+
+def representation(options: Mapping[str, Any], element: int) -> int:
+    """The representation word of Tab_osc / Tab_int element ``element``."""
+    if element == options['actual_speed_element']:
+        return int(options['actual_speed_representation'])
+    if element == options['actual_torque_element']:
+        return int(options['actual_torque_representation'])
+    if element == options['position_element']:
+        return DIRECT
+    return 0
+
+
+def actual_value(options: Mapping[str, Any], motor: Motor, n_max: float, element: int) -> int:
+    """Tab_osc / Tab_int element ``element`` now (``n_max`` in rad/s)."""
+    if element == options['actual_speed_element']:
+        return encode(motor.speed / n_max, options['actual_speed_representation'])
+    if element == options['actual_torque_element']:
+        return encode(motor.torque / options['rated_torque'], options['actual_torque_representation'])
+    if element == options['position_element']:
+        counts = int(round(motor.angle / (2.0 * math.pi) * PULSES_PER_REVOLUTION)) & 0xFFFF
+        return counts - 0x10000 if counts >= 0x8000 else counts
+    return 0

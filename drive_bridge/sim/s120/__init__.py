@@ -4,7 +4,10 @@
 
 Modules: objects (indices, numbers, codes), parameters (the SINAMICS parameter table), emcy
 (messages, EMCY layout, 0x1003 per module), pdo (PDO rules), modes (VL / PV / PT), axis (a
-motor drive object), drive (the node: :class:`SimS120`, registered on import).
+motor drive object), options, dictionary (the object dictionary as built), window (the
+parameter window p8630), storage (0x1010 / 0x1011), telegram (A08751), messages (the active
+faults and alarms), view (a drive object's snapshot), drive (the node: :class:`SimS120`,
+registered on import, composed of those parts).
 
 The object dictionary is the node config's EDS, as for every simulated slave; a modular EDS
 must come expanded for the configured slots (the family's ``prepare_object_dictionary``). What
@@ -105,9 +108,10 @@ manual), p0009 states other than the reboot on 0.
 """
 
 from drive_bridge.sim.s120.axis import S120Axis
-from drive_bridge.sim.s120.drive import DriveObjectView, SimS120
+from drive_bridge.sim.s120.drive import SimS120
 from drive_bridge.sim.s120.emcy import Message, S120Emcy
 from drive_bridge.sim.s120.options import S120_OPTIONS
 from drive_bridge.sim.s120.pdo import S120PdoEngine
+from drive_bridge.sim.s120.view import DriveObjectView
 
 __all__ = ['DriveObjectView', 'Message', 'S120Axis', 'S120Emcy', 'S120PdoEngine', 'S120_OPTIONS', 'SimS120']

@@ -135,25 +135,22 @@ class S120Axis(Axis402):
                 return self._fault_reaction
         return super().param(index, subindex, default)
 
-    def motion_parameters(self) -> dict[str, Any]:
-        cache = self._cache
-        if cache is None:
-            p = self.parameter
-            v_max = self.counts(float(p(1082)))
+    def derive_motion_parameters(self) -> dict[str, Any]:
+        p = self.parameter
+        v_max = self.counts(float(p(1082)))
 
-            def rate(time: float) -> float:
-                return max(1.0, v_max / time) if time > 0 else FAST
+        def rate(time: float) -> float:
+            return max(1.0, v_max / time) if time > 0 else FAST
 
-            rated = float(p(333))
-            cache = self._cache = {
-                'motor_speed': v_max, 'max_velocity': v_max, 'profile_velocity': v_max,
-                'acceleration': rate(float(p(1120))), 'deceleration': rate(float(p(1121))),
-                'quick_stop_deceleration': rate(float(p(1135))), 'max_deceleration': FAST,
-                'torque_limit': 1000.0 * float(p(1520)) / rated if rated > 0 else 32767.0,
-                'interpolation_period': None, 'software_limits': None, 'fe_window': 0xFFFFFFFF,
-                'fe_timeout': 0.0,
-            }
-        return cache
+        rated = float(p(333))
+        return {
+            'motor_speed': v_max, 'max_velocity': v_max, 'profile_velocity': v_max,
+            'acceleration': rate(float(p(1120))), 'deceleration': rate(float(p(1121))),
+            'quick_stop_deceleration': rate(float(p(1135))), 'max_deceleration': FAST,
+            'torque_limit': 1000.0 * float(p(1520)) / rated if rated > 0 else 32767.0,
+            'interpolation_period': None, 'software_limits': None, 'fe_window': 0xFFFFFFFF,
+            'fe_timeout': 0.0,
+        }
 
     # -- objects ------------------------------------------------------------------------------------
     def register_objects(self) -> None:
@@ -298,7 +295,7 @@ class S120Axis(Axis402):
             scale = resolution / self.counts_per_rev
             self.p, self.dp, self.v, self.dv = self.p * scale, self.dp * scale, self.v * scale, self.dv * scale
             self.counts_per_rev = resolution
-        self._cache = None
+        self.invalidate_parameters()
 
     @property
     def speed_rpm(self) -> float:

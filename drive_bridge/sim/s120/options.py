@@ -3,11 +3,14 @@ settings the manual leaves to commissioning, its readings where it leaves room, 
 motor data (package docstring)."""
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
+from drive_bridge.cia402 import objects as obj
 from drive_bridge.sim.options import AXIS_OPTIONS, SLAVE_OPTIONS, OptionSpec
-from drive_bridge.sim.s120.objects import MAX_DRIVE_OBJECTS
+from drive_bridge.sim.s120.axis import S120Axis
+from drive_bridge.sim.s120.objects import CU, MAX_DRIVE_OBJECTS, P8684_STATES
 
 _AXIS = {name: replace(spec) for name, spec in AXIS_OPTIONS.items()}
 _AXIS['inertia'] = replace(AXIS_OPTIONS['inertia'], default=1e-7,
@@ -71,3 +74,31 @@ S120_OPTIONS: dict[str, OptionSpec] = {
                                            '2 OFF2, 3 OFF3 (= 0x6007)', 0, 3),
     'mode': _axis_option('mode', int, 3, 'mode at power-on (p1300): 2 vl, 3 pv, 4 pt', 2, 4),
 }
+
+
+def drive_object_count(name: str, requested: Any, available: int) -> int:
+    """The motor drive objects of node ``name`` (``drive_objects``: 0 for every one of the
+    ``available`` axis slots of its object dictionary)."""
+    if isinstance(requested, bool) or not isinstance(requested, int) or requested <= 0:
+        return available  # (a wrong type or range is reported by the option check)
+    if requested > available:
+        raise ValueError(f'simulation option drive_objects of node {name!r}: {requested} drive objects, '
+                         f'but the object dictionary has the objects of {available} axis slot(s) '
+                         f'(0x6040 + 0x800 k)')
+    return requested
+
+
+def check_options(name: str, options: Mapping[str, Any], axes: Sequence[S120Axis]) -> None:
+    """What the option specs cannot check alone: distinct drive object numbers, p8684, boot modes."""
+    where = f'simulation options of node {name!r}'
+    numbers = [a.do_number for a in axes]
+    if len(set(numbers)) != len(numbers) or CU in numbers:
+        raise ValueError(f'{where}: do_numbers {numbers} must differ from each other and from the Control '
+                         f'Unit (1)')
+    if options['p8684'] not in P8684_STATES:
+        raise ValueError(f'{where}: p8684 must be 4 (stopped), 5 (operational) or 127 (pre-operational), '
+                         f'got {options["p8684"]}')
+    for axis in axes:
+        if not axis.supports(axis.boot_mode):
+            raise ValueError(f'{where}: mode {axis.boot_mode} of slot {axis.slot}: the object dictionary '
+                             f'lacks its objects (vl needs 0x{obj.for_axis(0x6042, axis.slot):04X})')

@@ -24,7 +24,9 @@ from typing import Any
 
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.sim.pdo import COB_INVALID, MAX_BITS, Pdo, PdoEngine
+from drive_bridge.sim.pdo import PdoEngine
+from drive_bridge.sim.pdocodec import COB_INVALID, Pdo
+from drive_bridge.sim.pdoparams import MAX_BITS
 from drive_bridge.sim.s120.objects import ABORT_PDO_TOO_LONG, ABORT_READ_ONLY, ABORT_STATE, MAX_VALID_RPDOS
 from drive_bridge.sim.store import key
 
@@ -88,7 +90,7 @@ class S120PdoEngine(PdoEngine):
         if self.mapping_locked(pdo, values[key(pdo.comm, 1)]):
             raise SdoAbortedError(ABORT_STATE)
         if value != 0:
-            self._check_entry(pdo, value)
+            self.check_entry(pdo, value)
         # sub 0 follows the entries unless a CiA 301 master set it to 0 to write them
         self._follow = index if self.sub0_read_only or values[key(index, 0)] != 0 else None
 

@@ -5,9 +5,11 @@ dictionary is families/servostar/data/servostar.eds (families/servostar/edsgen.p
 how the manual was read).
 
 Modules: objects (indices, library, codes, units), emcy (category byte, follow-up frame), pdo
-(library PDOs), modes (manufacturer modes), axis (state machine, statusword, units, error
-reactions), ascii (the PDO 21 terminal), drive (the node: :class:`SimServostar`, registered as
-the ``servostar`` simulator on import).
+(library PDOs), modes (manufacturer modes), units (counts, increments, user units, ramps),
+status (statusword bits, 0x1002, the actual values), storage (SAVE, 0x1010:2), axis (state
+machine, modes, error reactions; its part: units), ascii (the PDO 21 terminal), drive (the
+node: :class:`SimServostar`, registered as the ``servostar`` simulator on import; its parts:
+storage, the terminal).
 
 CiA 301 [2]:
 

@@ -8,24 +8,18 @@ from typing import Any
 from canopen.sdo.exceptions import SdoAbortedError
 
 from drive_bridge.cia402 import objects as obj
-from drive_bridge.cia402.statemachine import CW_FAULT_RESET, SW_VOLTAGE_ENABLED, SW_WARNING, State
+from drive_bridge.cia402.statemachine import CW_FAULT_RESET, State
 from drive_bridge.sim.axis402 import Axis402
 from drive_bridge.sim.interfaces import AxisDrive
-from drive_bridge.sim.motion import wrap_int32
 from drive_bridge.sim.opmodes import OpMode, make_mode
 from drive_bridge.sim.servostar.modes import SPEED_ZERO, STAR_MODES, MotionTask, Trajectory
 from drive_bridge.sim.servostar.objects import (
     ABORT_INVALID_VALUE,
     ACC,
-    ACTUAL,
-    COUNTS_PER_REV,
     CW_ACKNOWLEDGE,
     DEC,
     DECSTOP,
-    DRVCNFG,
-    DRVCNFG_STATUS_BIT11,
     HOMING_METHODS,
-    INTERNAL_LIMIT_WARNINGS,
     INTERPOLATION_PERIOD,
     JOG,
     MODES,
@@ -34,32 +28,19 @@ from drive_bridge.sim.servostar.objects import (
     OPMODE,
     POSITION_CONTROLLER,
     POSITION_FACTOR,
-    POSITION_INCREMENTS,
     POWER_ON_MODES,
     PRBASE,
     PROFILE_VELOCITY,
     PTBASE,
-    RATED_CURRENT_MA,
     SAMPLE,
     SETPOINT,
     SPEED_DIGITAL,
-    ST_ERROR,
-    ST_HOME_POSITION,
-    ST_IN_POSITION,
-    ST_INIT_DONE,
-    ST_REFERENCE_SET,
-    ST_STAGE_ENABLED,
-    ST_STANDSTILL,
-    ST_TASK_ACTIVE,
-    SW_FAULT,
-    SW_INTERNAL_LIMIT,
-    SW_REMOTE,
-    SW_TOGGLE,
-    SW_VOLTAGE_DISABLE,
     VALUE,
     VELOCITY_FACTOR,
     VLIM,
 )
+from drive_bridge.sim.servostar.status import actual_value_readers, status_register, statusword
+from drive_bridge.sim.servostar.units import Units, check_interpolation_period, ptbase_of_period
 from drive_bridge.sim.store import key
 
 STAGE_STATES = frozenset({State.SWITCHED_ON, State.OPERATION_ENABLED, State.QUICK_STOP_ACTIVE})
@@ -86,7 +67,7 @@ class ServostarAxis(Axis402):
         self._fresh_setpoint = False
         self._latched_setpoint = 0
         self.period = 0.001  # s, PTBASE as read at boot
-        self.prbase = 20
+        self.units = Units(drive.store.values, lambda: self.star.options)
         self.trajectory_target = 0.0
         # views for tests (trajectory mode)
         self.sync_intervals: list[float] = []
@@ -108,9 +89,8 @@ class ServostarAxis(Axis402):
             if key(index, subindex) in d.store:
                 d.register_object(index, subindex, **hooks)
 
-        reg(POSITION_INCREMENTS, reader=lambda: wrap_int32(self.p * self.prbase_scale()))
-        reg(obj.POSITION_ACTUAL, reader=lambda: wrap_int32(self.counts_to_position_units(self.p)))
-        reg(obj.VELOCITY_ACTUAL, reader=lambda: wrap_int32(self.counts_to_velocity_units(self.v)))
+        for (index, subindex), reader in actual_value_readers(self).items():
+            reg(index, subindex, reader=reader)
         reg(obj.HOMING_METHOD, validator=self._check_homing_method)
         reg(MOTION_TASK, 4, on_write=self._on_trajectory_setpoint)
         reg(MOTION_TASK, 5, on_write=self._on_task_number)
@@ -119,122 +99,57 @@ class ServostarAxis(Axis402):
             reg(INTERPOLATION_PERIOD, sub, validator=lambda value, sub=sub: self._check_period(sub, value),
                 on_write=lambda value, sub=sub: self._on_period(sub))
         reg(PRBASE, VALUE, validator=self._check_prbase)
-        actual: dict[int, Any] = {
-            1: lambda: int(self.p) & 0xFFFFFF,
-            2: lambda: int(round(self.v / 125.0)),
-            3: lambda: wrap_int32(self.p * self.actual_scale()),
-            6: lambda: wrap_int32(self.counts_to_user(self.p)),
-            7: lambda: wrap_int32(self.counts_to_user(self.v)),
-            8: lambda: wrap_int32(self.counts_to_user(self.dp - self.p)),
-            9: lambda: int(abs(self.torque) * RATED_CURRENT_MA / 1000.0),
-            10: lambda: int(round(self.v * 60.0 / COUNTS_PER_REV)),
-            0x11: self.extended_status,
-            0x13: lambda: wrap_int32(self.dp * self.prbase_scale()),
-            0x16: lambda: self.star.errcode(),
-            0x17: lambda: wrap_int32(self.dv * SAMPLE),
-        }
-        for sub, reader in actual.items():
-            reg(ACTUAL, sub, reader=reader)
         for index, subindex in ((ACC, VALUE), (DEC, VALUE), (DECSTOP, VALUE), (VLIM, VALUE), (VELOCITY_FACTOR, 1),
                                 (VELOCITY_FACTOR, 2), (POSITION_FACTOR, 1), (POSITION_FACTOR, 2),
                                 (POSITION_CONTROLLER, 8), (POSITION_CONTROLLER, 9)):
             reg(index, subindex, on_write=self.invalidate_parameters)
 
-    # -- units -------------------------------------------------------------------------------------------
-    def prbase_scale(self) -> float:
-        """2^PRBASE increments per 2^20 counts."""
-        return 2.0 ** (self.prbase - 20)
-
-    def actual_scale(self) -> float:
-        """0x2070:03: 2^20 per revolution, or 2^PRBASE with the option actual_position_resolution."""
-        return self.prbase_scale() if self.star.options['actual_position_resolution'] == 'prbase' else 1.0
-
-    def _gear(self) -> float:
-        """2020h user units ("um") per count: PGEARI / PGEARO."""
-        out = self._values.get(key(POSITION_CONTROLLER, 8), 1) or 1
-        return (self._values.get(key(POSITION_CONTROLLER, 9), 1) or 1) / out
-
-    def counts_to_user(self, counts: float) -> float:
-        return counts * self._gear()
-
-    def user_to_counts(self, value: float) -> float:
-        return float(value) / self._gear()
-
-    def _position_factor(self) -> float:
-        """0x6093: user units of 6064h / 607Ah per count."""
-        numerator = self._values.get(key(POSITION_FACTOR, 1), COUNTS_PER_REV) or COUNTS_PER_REV
-        return (self._values.get(key(POSITION_FACTOR, 2), 10000) or 1) / numerator
-
-    def counts_to_position_units(self, counts: float) -> float:
-        return counts * self._position_factor()
-
-    def _velocity_factor(self) -> float:
-        """counts/s per velocity unit (0x6094; 0/0: increments per 250 us)."""
-        numerator = self._values.get(key(VELOCITY_FACTOR, 1), 0)
-        divisor = self._values.get(key(VELOCITY_FACTOR, 2), 0)
-        return numerator / divisor if numerator and divisor else 1.0 / SAMPLE
-
-    def counts_to_velocity_units(self, counts_per_s: float) -> float:
-        return counts_per_s / self._velocity_factor()
+    # -- units (units.py) ---------------------------------------------------------------------------------
+    @property
+    def prbase(self) -> int:
+        return self.units.prbase
 
     def vlim(self) -> float:
-        """VLIM (rpm) in counts/s."""
-        return max(1.0, float(self._values.get(key(VLIM, VALUE), 3000)) * COUNTS_PER_REV / 60.0)
+        return self.units.vlim()
 
-    @staticmethod
-    def ramp(time_ms: float, speed: float) -> float:
-        """The acceleration of a ramp time (ms from 0 to ``speed``)."""
-        return max(1.0, speed) / max(float(time_ms), 1.0) * 1000.0
+    def ramp(self, time_ms: float, speed: float) -> float:
+        return self.units.ramp(time_ms, speed)
 
-    def emergency_deceleration(self) -> float:
-        """DECSTOP: the emergency (quick-stop) ramp, ms from VLIM to 0."""
-        return self.ramp(self._values.get(key(DECSTOP, VALUE), 10), self.vlim())
+    def user_to_counts(self, value: float) -> float:
+        return self.units.user_to_counts(value)
 
     def param(self, index: int, subindex: int = 0, default: Any = None) -> Any:
         if subindex == 0 and index in FIXED_OPTION_CODES:
             return FIXED_OPTION_CODES[index]
         if subindex == 0:
             if index == obj.TARGET_POSITION:
-                return super().param(index, 0, 0) / self._position_factor()
+                return super().param(index, 0, 0) / self.units.position_factor()
             if index == obj.HOME_OFFSET:
-                return super().param(index, 0, 0) / self._position_factor()
+                return super().param(index, 0, 0) / self.units.position_factor()
             if index in (obj.TARGET_VELOCITY, obj.PROFILE_VELOCITY):
-                return super().param(index, 0, 0) * self._velocity_factor()
+                return super().param(index, 0, 0) * self.units.velocity_factor()
             if index == obj.HOMING_METHOD:
                 method = super().param(index, 0, 0)
                 return HOMING_METHOD_AS.get(method, method)
             if index == obj.HOMING_ACCELERATION:
-                speed = self.param(obj.HOMING_SPEEDS, 1, 0) or self.vlim()
-                return self.ramp(super().param(index, 0, 0) or 10, speed)
+                speed = self.param(obj.HOMING_SPEEDS, 1, 0) or self.units.vlim()
+                return self.units.ramp(super().param(index, 0, 0) or 10, speed)
             if index == POSITION_WINDOW:
-                return self.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000))
+                return self.units.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000))
             if index == VELOCITY_WINDOW:
                 return SPEED_ZERO
             if index in (POSITION_WINDOW_TIME, VELOCITY_WINDOW_TIME):
                 return 0
         if index == obj.HOMING_SPEEDS and subindex in (1, 2):
-            return super().param(index, subindex, 0) * self._velocity_factor()
+            return super().param(index, subindex, 0) * self.units.velocity_factor()
         return super().param(index, subindex, default)
 
-    def motion_parameters(self) -> dict[str, Any]:
-        cache = self._cache
-        if cache is None:
-            cache = super().motion_parameters()
-            vlim = self.vlim()
-            profile = min(cache['profile_velocity'], vlim)
-            acc = self._values.get(key(obj.PROFILE_ACCELERATION), 0) or self._values.get(key(ACC, VALUE), 10)
-            dec = self._values.get(key(obj.PROFILE_DECELERATION), 0) or self._values.get(key(DEC, VALUE), 10)
-            emergency = self.emergency_deceleration()
-            speed_mode = self.mode_impl.code in (SPEED_DIGITAL, PROFILE_VELOCITY, JOG)
-            reference = vlim if speed_mode else profile  # ramp times refer to VLIM in the speed modes
-            cache.update(motor_speed=vlim * 1.25, max_velocity=vlim, profile_velocity=profile,
-                         acceleration=self.ramp(acc, reference), deceleration=self.ramp(dec, reference),
-                         speed_acceleration=self.ramp(self._values.get(key(ACC, VALUE), 10), vlim),
-                         speed_deceleration=self.ramp(self._values.get(key(DEC, VALUE), 10), vlim),
-                         pv_acceleration=self.ramp(acc, vlim), pv_deceleration=self.ramp(dec, vlim),
-                         quick_stop_deceleration=emergency, max_deceleration=emergency,
-                         interpolation_period=self.period, software_limits=None, fe_window=0xFFFFFFFF,
-                         torque_limit=2000.0)
+    def derive_motion_parameters(self) -> dict[str, Any]:
+        cache = super().derive_motion_parameters()
+        speed_mode = self.mode_impl.code in (SPEED_DIGITAL, PROFILE_VELOCITY, JOG)
+        cache.update(self.units.ramps(cache['profile_velocity'], speed_mode),
+                     interpolation_period=self.period, software_limits=None, fe_window=0xFFFFFFFF,
+                     torque_limit=2000.0)
         return cache
 
     def profile_acceleration(self) -> float:
@@ -264,17 +179,10 @@ class ServostarAxis(Axis402):
         self.star.check_disabled()  # "Disabled Reset"
 
     def _check_period(self, sub: int, value: int) -> None:
-        units = value if sub == 1 else self._values.get(key(INTERPOLATION_PERIOD, 1), 1)
-        index = value if sub == 2 else self._values.get(key(INTERPOLATION_PERIOD, 2), -3)
-        period_ms = units * 10.0 ** (index + 3)
-        if period_ms < 1.0 - 1e-9 or abs(period_ms - round(period_ms)) > 1e-6 or round(period_ms) * 4 > 127:
-            raise SdoAbortedError(ABORT_INVALID_VALUE)  # whole ms only, within PTBASE's range
+        check_interpolation_period(self._values, sub, value)
 
     def _on_period(self, sub: int) -> None:
-        """60C2h defines PTBASE (effective after save and restart, as PTBASE itself)."""
-        units = self._values.get(key(INTERPOLATION_PERIOD, 1), 1)
-        index = self._values.get(key(INTERPOLATION_PERIOD, 2), -3)
-        self._values[key(PTBASE, VALUE)] = int(round(units * 10.0 ** (index + 3))) * 4
+        self._values[key(PTBASE, VALUE)] = ptbase_of_period(self._values)
 
     # -- trajectory and motion-task objects -------------------------------------------------------------
     def _on_trajectory_setpoint(self, value: int) -> None:
@@ -286,7 +194,7 @@ class ServostarAxis(Axis402):
         if not self._fresh_setpoint:
             return None if self.star.options['trajectory_setpoints'] == 'relative' else self.trajectory_target
         self._fresh_setpoint = False
-        value = self._values[key(MOTION_TASK, 4)] / self.prbase_scale()
+        value = self._values[key(MOTION_TASK, 4)] / self.units.prbase_scale()
         if self.star.options['trajectory_setpoints'] == 'relative':
             self.trajectory_target += value
         else:
@@ -402,7 +310,7 @@ class ServostarAxis(Axis402):
         motion stays blocked until the acknowledge (controlword bit 11)."""
         if self.state is State.OPERATION_ENABLED and self.braking != 'error':
             self.dp, self.dv = self.p, self.v
-            self.brake('error', self.emergency_deceleration())
+            self.brake('error', self.units.emergency_deceleration())
         self.task_active = False
 
     def release(self) -> None:
@@ -417,52 +325,13 @@ class ServostarAxis(Axis402):
             self.enter_state(State.SWITCH_ON_DISABLED)
         self.task_active = False
 
-    # -- statusword and status registers ---------------------------------------------------------------
+    # -- statusword and status registers (status.py) -----------------------------------------------------
     def compute_statusword(self) -> int:
-        sw = super().compute_statusword()
-        sw &= ~(SW_VOLTAGE_ENABLED | SW_REMOTE | SW_WARNING | SW_INTERNAL_LIMIT | SW_TOGGLE)
-        star = self.star
-        if not star.dc_link:
-            sw |= SW_VOLTAGE_DISABLE
-        if self.warnings:
-            sw |= SW_WARNING
-        if self.toggle:
-            sw |= SW_TOGGLE
-        if self._values.get(key(DRVCNFG, VALUE), 0) & DRVCNFG_STATUS_BIT11 and self.warnings & INTERNAL_LIMIT_WARNINGS:
-            sw |= SW_INTERNAL_LIMIT
-        if star.options['fault_bit3'] and star.error_pending():
-            sw |= SW_FAULT
-        return sw
-
-    def in_position(self) -> bool:
-        """0x1002 bit 19: at standstill within PEINPOS of the demand, and no motion task running
-        (a task that starts leaves "in position" at once: 03h, not 0Bh, in §6.1.6's frames)."""
-        if self.task_active:
-            return False
-        window = self.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000))
-        return self.standstill() and abs(self.dp - self.p) <= window
+        return statusword(self, super().compute_statusword(), self._values)
 
     def status_register(self) -> int:
-        """0x1002 (DRVSTAT), the bits the simulation knows. Bits 18 (at the home position) and 19
-        (in position) are 0 while a motion task runs (the frames of §6.1.6)."""
-        bits = self.warnings | ST_INIT_DONE
-        if self.task_active:
-            bits |= ST_TASK_ACTIVE
-        if self.homed:
-            bits |= ST_REFERENCE_SET
-        if self.homed and not self.task_active:  # 03h, not 07h, at §6.1.6's set-point acknowledge
-            offset = self.user_to_counts(self._values.get(key(0x2024, 6), 0))
-            if abs(self.p - offset) <= self.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000)):
-                bits |= ST_HOME_POSITION
-        if self.in_position():
-            bits |= ST_IN_POSITION
-        if abs(self.v) < SPEED_ZERO:
-            bits |= ST_STANDSTILL
-        if self.stage_enabled:
-            bits |= ST_STAGE_ENABLED
-        if self.star.error_pending():
-            bits |= ST_ERROR
-        return bits
+        """0x1002 (DRVSTAT)."""
+        return status_register(self, self._values)
 
     def extended_status(self) -> int:
         """0x2070:11 for TPDO 33: digital inputs in bits 0..3 (input 1 = hardware enable), bits
@@ -473,8 +342,8 @@ class ServostarAxis(Axis402):
     def load_boot_values(self) -> None:
         """PTBASE and PRBASE take effect at power-on / restart only [5.1]."""
         self.period = max(1, int(self._values.get(key(PTBASE, VALUE), 4))) * SAMPLE
-        self.prbase = int(self._values.get(key(PRBASE, VALUE), 20))
-        self._cache = None
+        self.units.prbase = int(self._values.get(key(PRBASE, VALUE), 20))
+        self.invalidate_parameters()
 
     def reset(self) -> None:
         self._pending_mode = None
@@ -523,5 +392,6 @@ class ServostarAxis(Axis402):
 
     def _check_pemax(self) -> None:
         limit = self._values.get(key(POSITION_CONTROLLER, 3), 0)
-        if limit > 0 and not math.isnan(self.p) and abs(self.counts_to_user(self.following_error_counts())) > limit:
+        error = self.units.counts_to_user(self.following_error_counts())
+        if limit > 0 and not math.isnan(self.p) and abs(error) > limit:
             self.star.following_error(self)

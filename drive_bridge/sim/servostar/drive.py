@@ -23,14 +23,12 @@ from drive_bridge.sim.servostar.modes import MotionTask
 from drive_bridge.sim.servostar.objects import (
     ABORT_COMMAND,
     ABORT_INVALID_VALUE,
-    ABORT_NOT_STORED,
     ABORT_STATE,
     CLRFAULT,
     COLDSTART,
     DRVCNFG,
     DRVCNFG_BOOT_SHORT_BIT0,
     DRVCNFG_LENGTH_CHECK,
-    DRVCNFG_STORE_PDOS,
     DRVSTAT,
     EMCY_FOLLOWING_ERROR,
     EMCY_NOT_ENABLED,
@@ -47,10 +45,8 @@ from drive_bridge.sim.servostar.objects import (
     POSITION_CONTROLLER,
     RPDO_SELECT,
     SAVE,
-    SIGNATURE_SAVE,
     STATUS_BYTES,
     STATUS_REGISTER,
-    STORE_PARAMETERS,
     TPDO_SELECT,
     VALUE,
     WARN_FOLLOWING_ERROR,
@@ -58,14 +54,8 @@ from drive_bridge.sim.servostar.objects import (
 )
 from drive_bridge.sim.servostar.options import SERVOSTAR_OPTIONS
 from drive_bridge.sim.servostar.pdo import ServostarPdoEngine
+from drive_bridge.sim.servostar.storage import DriveStorage
 from drive_bridge.sim.store import key
-
-# communication parameters stored by 0x1010:2 (DRVCNFG bit 3) and restored at power-on
-_COMM_RANGES = ((0x1005, 0x1007), (0x100C, 0x100E), (0x1014, 0x1014), (0x1400, 0x1BFF), (0x2600, 0x2603),
-                (0x2A00, 0x2A03))
-# parameters stored by SAVE (35EBh) besides the object channel's EEPROM entries
-_SAVED_OBJECTS = (0x2020, 0x2024, 0x607B, 0x607C, 0x6086, 0x6098, 0x6099, 0x609A, 0x60C2)
-IN_EEPROM = 0x00020000
 
 
 @register_simulator('servostar')
@@ -80,7 +70,6 @@ class SimServostar(SimDrive402):
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
         self.hardware_enable = True
         self.dc_link = True
-        self._saved_comm: dict[int, Any] | None = None
         self._persistent: dict[int, int] = {}  # code -> category: comes back after every reset
         self.boot_messages = 0
         super().__init__(node, options=options)
@@ -93,6 +82,7 @@ class SimServostar(SimDrive402):
         self.star_emcy.follow_up_category = self.options['emcy_follow_up_category']
         if key(DRVCNFG, VALUE) in self.store:
             self.store.set_default(DRVCNFG, VALUE, self.options['drvcnfg'])
+        self.storage = DriveStorage(self.store)
         pdo = self.star_pdo
         pdo.trajectory_offset = self._trajectory_offset
         self.terminal = AsciiTerminal(self.store, self._terminal_write, lambda index: self.value(index, VALUE),
@@ -124,8 +114,7 @@ class SimServostar(SimDrive402):
         reg(DRVSTAT, VALUE, reader=self._drvstat)
         for sub in range(1, 11):
             reg(STATUS_BYTES, sub, reader=lambda sub=sub: self._status_byte(sub))
-        reg(STORE_PARAMETERS, 1, validator=self._refuse_store)
-        reg(STORE_PARAMETERS, 2, reader=lambda: 1, validator=self._check_store, on_write=lambda v: self._store_comm())
+        self.storage.register(reg)
         reg(SAVE, VALUE, on_write=lambda v: self.save())
         reg(COLDSTART, VALUE, validator=lambda v: self.check_disabled(), on_write=lambda v: self.restart(True))
         reg(CLRFAULT, VALUE, on_write=lambda v: self._clear_faults())
@@ -167,32 +156,10 @@ class SimServostar(SimDrive402):
     def _terminal_write(self, index: int, value: Any) -> None:
         self.write_object(key(index, VALUE), value)
 
-    # -- save, store, cold start --------------------------------------------------------------------
+    # -- save (storage.py), cold start --------------------------------------------------------------------
     def save(self) -> None:
         """SAVE (35EBh): the drive parameters in EEPROM become the power-on values."""
-        values, defaults = self.store.values, self.store.defaults
-        for k in self.store.variables:
-            index, sub = k >> 8, k & 0xFF
-            channel = 0x3500 <= index <= 0x39FF and sub == VALUE \
-                and values.get(key(index, 6), 0) & IN_EEPROM
-            if channel or index in _SAVED_OBJECTS:
-                defaults[k] = values[k]
-
-    @staticmethod
-    def _refuse_store(value: int) -> None:
-        raise SdoAbortedError(ABORT_NOT_STORED)  # 0x1010:1 is "reserved"
-
-    def _check_store(self, value: int) -> None:
-        if value != SIGNATURE_SAVE or not self.store.values.get(key(DRVCNFG, VALUE), 0) & DRVCNFG_STORE_PDOS:
-            raise SdoAbortedError(ABORT_NOT_STORED)
-
-    def _comm_keys(self) -> list[int]:
-        return [k for low, high in _COMM_RANGES for k in self.store.keys_between(low, high)]
-
-    def _store_comm(self) -> None:
-        """0x1010:2 "save" (with DRVCNFG bit 3): PDO configuration and communication parameters."""
-        self._saved_comm = {k: self.store.values[k] for k in self._comm_keys()}
-        self.store.values[key(STORE_PARAMETERS, 2)] = 1
+        self.storage.save()
 
     def check_disabled(self) -> None:
         """Commands and parameters of status "Disabled": refused while the output stage is enabled
@@ -215,12 +182,7 @@ class SimServostar(SimDrive402):
     def on_reset_communication(self) -> None:
         """The PDO configuration after power-on / reset: the library defaults, or what 0x1010:2
         stored when DRVCNFG bit 3 is set."""
-        values, defaults = self.store.values, self.store.defaults
-        for low, high in ((0x2600, 0x2603), (0x2A00, 0x2A03)):
-            for k in self.store.keys_between(low, high):
-                values[k] = defaults[k]
-        if self._saved_comm and values.get(key(DRVCNFG, VALUE), 0) & DRVCNFG_STORE_PDOS:
-            values.update(self._saved_comm)
+        self.storage.load_communication()
 
     def on_boot(self) -> None:
         super().on_boot()
@@ -343,7 +305,7 @@ class SimServostar(SimDrive402):
         restarts the drive; 2 emergency ramp and motion blocked until bit 11; 3/5 the EMCY pair
         only. ``persistent``: it comes back after every restart / acknowledge until
         :meth:`clear_fault_cause`."""
-        with self._lock:
+        with self.lock:
             category = category_of(code) if category is None else category
             if persistent:
                 self._persistent[code] = category
@@ -352,7 +314,7 @@ class SimServostar(SimDrive402):
 
     def clear_fault_cause(self, axis: int | None = None, code: int | None = None) -> None:
         """The persistent cause of ``code`` (all if None) is gone: a reset clears it again."""
-        with self._lock:
+        with self.lock:
             if code is None:
                 self._persistent.clear()
             else:
@@ -360,7 +322,7 @@ class SimServostar(SimDrive402):
 
     def set_hardware_enable(self, on: bool = True) -> None:
         """The hardware enable input (transition 3 needs it; off switches the output stage off)."""
-        with self._lock:
+        with self.lock:
             self.hardware_enable = bool(on)
             if not on:
                 self.axis_star.stage_off()
@@ -368,7 +330,7 @@ class SimServostar(SimDrive402):
 
     def set_dc_link(self, on: bool = True) -> None:
         """DC-link voltage present (statusword bit 4 = 0); off switches the output stage off."""
-        with self._lock:
+        with self.lock:
             self.dc_link = bool(on)
             if not on:
                 self.axis_star.stage_off()
@@ -377,35 +339,35 @@ class SimServostar(SimDrive402):
     # -- views for tests --------------------------------------------------------------------------------
     @property
     def status_register(self) -> int:
-        with self._lock:
+        with self.lock:
             return self.axis_star.status_register()
 
     @property
     def errors(self) -> dict[str, list[int]]:
         """Pending error codes by category class: 'cat1' (restart needed), 'cat2' (bit 11)."""
-        with self._lock:
+        with self.lock:
             return {source: self.star_emcy.codes(source) for source in ('cat1', 'cat2')}
 
     @property
     def ascii_log(self) -> list[tuple[str, str]]:
-        with self._lock:
+        with self.lock:
             return list(self.terminal.log)
 
     def selected_pdos(self) -> dict[str, list[int]]:
         """Library numbers per channel: {'rpdo': [ch1..ch4], 'tpdo': [...]}."""
-        with self._lock:
+        with self.lock:
             values = self.store.values
             return {'rpdo': [values[key(RPDO_SELECT + n)] for n in range(4)],
                     'tpdo': [values[key(TPDO_SELECT + n)] for n in range(4)]}
 
     def mapping(self, transmit: bool, channel: int) -> list[int]:
         """The mapping entries of a channel as its 0x16xx / 0x1Axx shows them."""
-        with self._lock:
+        with self.lock:
             index = (0x1A00 if transmit else 0x1600) + channel - 1
             values = self.store.values
             return [values[key(index, s)] for s in range(1, values[key(index, 0)] + 1)]
 
     @property
     def saved_communication(self) -> bool:
-        return self._saved_comm is not None
+        return self.storage.saved_comm is not None
 

@@ -8,7 +8,9 @@ from typing import Any
 
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.sim.pdo import ABORT_INCOMPATIBLE, ABORT_PDO_TOO_LONG, MAX_BITS, Pdo, PdoEngine
+from drive_bridge.sim.pdo import PdoEngine
+from drive_bridge.sim.pdocodec import Pdo
+from drive_bridge.sim.pdoparams import ABORT_INCOMPATIBLE, ABORT_PDO_TOO_LONG, MAX_BITS
 from drive_bridge.sim.servostar.objects import (
     ABORT_INVALID_VALUE,
     ABORT_READ_ONLY,
