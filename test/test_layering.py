@@ -301,15 +301,15 @@ def test_private_use_finders() -> None:
             def _write(self, key, value): ...  # an override
             def run(self, other):
                 self._mode = 3
-                return other._device_command(), self._own, super()._halt()
+                return other._device_command(), self._own, super()._hold_stale()
 
         def peek(axis):
-            return axis._cond, axis._not_a_core_name
+            return axis._target_state, axis._not_a_core_name
     '''))
     node = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef))
     assert private_uses(node, core_privates(type('Quirky', (Axis,), {}))) == {'_write', '_mode', '_device_command',
-                                                                               '_halt'}
-    assert foreign_uses(tree, any_core_privates()) == {'_device_command', '_cond'}
+                                                                               '_hold_stale'}
+    assert foreign_uses(tree, any_core_privates()) == {'_device_command', '_target_state'}
 
 
 def test_drive_family_table_names_every_hook() -> None:
