@@ -255,9 +255,12 @@ def test_index_detector_misses(line: str) -> None:
 # --- the family boundary --------------------------------------------------------------------------
 
 # Where a family extends the core (docs/families.md): these classes, and any error class.
+# JointDriverBase (joint/driverbase.py): the plumbing every joint driver shares, all of it public; a
+# family's own joint driver (a drive without CiA 402: the OPEN drive's RunLogicDriver) builds on it.
 EXTENSION_POINTS = frozenset({'drive_bridge.families.interface.DriveFamily',
                               'drive_bridge.families.parameters.ParameterAccess',
-                              'drive_bridge.cia402.quirks.AxisQuirks'})
+                              'drive_bridge.cia402.quirks.AxisQuirks',
+                              'drive_bridge.joint.driverbase.JointDriverBase'})
 # Exceptions: none since issue 23 (the SERVOSTAR and S120 hand the CiA 402 Axis their AxisQuirks
 # instead of subclassing it). Both must stay empty: a family that needs more of the core asks for
 # a hook or a part; remove what is no longer used (the test says so), never add.
@@ -266,7 +269,8 @@ CORE_PRIVATES_USED: dict[str, frozenset[str]] = {}
 
 
 def test_families_subclass_only_extension_points() -> None:
-    """A family's classes subclass DriveFamily, ParameterAccess, error classes or none of the core."""
+    """A family's classes subclass DriveFamily, ParameterAccess, AxisQuirks, JointDriverBase, error
+    classes or none of the core."""
     wrong, kept = [], set()
     for cls in family_classes():
         for base in cls.__bases__:
@@ -277,7 +281,7 @@ def test_families_subclass_only_extension_points() -> None:
                 kept.add(name)
             else:
                 wrong.append(f'{name} subclasses the core class {base_name}')
-    assert not wrong, ('a family extends the core through DriveFamily, ParameterAccess and error classes only:\n'
+    assert not wrong, ('a family extends the core through the EXTENSION_POINTS and error classes only:\n'
                        + '\n'.join(wrong))
     assert kept == set(AXIS_SUBCLASSES), (
         f'no longer subclassed, remove from AXIS_SUBCLASSES: {set(AXIS_SUBCLASSES) - kept}')

@@ -122,7 +122,7 @@ class ModeControl(SetpointChecks):
         stale = self.deadman.stale
         if (mode in CYCLIC_MODES or looped) and self.deadman.expired(self.timeouts.command_timeout):
             self.message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
-                             f'{mode_name(mode)}: holding position')
+                            f'{mode_name(mode)}: holding position')
             self.intents.targets = {'target_velocity': 0, 'target_torque': 0}
             if looped and self.intents.loop_target is not None:  # the loop holds the last desired position
                 self.intents.loop_target = (self.intents.loop_target[0], 0.0)
@@ -236,8 +236,8 @@ class ModeControl(SetpointChecks):
             with self.lock:
                 self.halted = True
                 self.message = (f'mode {mode_name(refused)} not confirmed and the previous mode '
-                                 f'{mode_name(previous)} not either (0x6061 = {self.read("mode_display")}): '
-                                 'axis held (HALT)')
+                                f'{mode_name(previous)} not either (0x6061 = {self.read("mode_display")}): '
+                                'axis held (HALT)')
             return f'the previous mode {mode_name(previous)} was not confirmed either: axis held (HALT)'
         return f'the previous mode {mode_name(previous)} is restored'
 
