@@ -21,7 +21,7 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
-from drive_bridge.cia301.emcy import EmcyEvent, Severity
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.drive_limits import describe, with_drive_limits
 from drive_bridge.cia402.errors import AxisError
@@ -31,28 +31,12 @@ from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.modesupport import ModeSupport
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord, axis_keys
 from drive_bridge.cia402.quirks import AxisQuirks
+from drive_bridge.cia402.report import DRIVE_STATE, FaultReport
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import AxisSnapshot, DriveState, NodeIo
-from drive_bridge.joint.faults import fault_refusal
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
-
-DRIVE_STATE = {
-    State.UNKNOWN: DriveState.UNAVAILABLE,
-    State.NOT_READY_TO_SWITCH_ON: DriveState.DISABLED,
-    State.SWITCH_ON_DISABLED: DriveState.DISABLED,
-    State.READY_TO_SWITCH_ON: DriveState.READY,
-    State.SWITCHED_ON: DriveState.READY,
-    State.OPERATION_ENABLED: DriveState.ENABLED,
-    State.QUICK_STOP_ACTIVE: DriveState.STOPPING,
-    State.FAULT_REACTION_ACTIVE: DriveState.STOPPING,
-    State.FAULT: DriveState.FAULT,
-}
-
-
-def _sdo_number(value: int | float | str | bytes) -> int | None:
-    return None if isinstance(value, (str, bytes)) else int(value)
 
 
 class Axis(ModeControl):
@@ -88,7 +72,7 @@ class Axis(ModeControl):
         self._setpoint_refused = ''
         self._configured_limits = config.limits
         self._limits_said = ''
-        self._reset_emcy_count = 0
+        self.faults = FaultReport(node, self.key['error_code'], slot)
         # the drive family's list, when 0x6502 under-reports
         if accepted_modes is None and profile is not None:
             accepted_modes = profile.accepted_modes
@@ -253,8 +237,7 @@ class Axis(ModeControl):
         return f'state {self.state.label}, {sw_text}'
 
     def fault_text(self) -> str:
-        emcy = self.last_emcy()
-        return f'; last EMCY 0x{emcy.code:04X} {emcy.text}' if emcy else ''
+        return self.faults.emcy_text()
 
     def _go_to(self, target: State, timeout: float | None) -> None:
         self.require_available()
@@ -339,7 +322,7 @@ class Axis(ModeControl):
             with self.lock:
                 self._fault_reset_phase = 0
             raise AxisError(f'{exc}; {failed()}{self.fault_text()}') from None
-        self._reset_emcy_count = len(self.node.emcy_history())
+        self.faults.mark_reset()
 
     def on_booted(self) -> str:
         """After each boot (boot thread): settle the mode (0x6502) and the limits (the drive's
@@ -361,17 +344,7 @@ class Axis(ModeControl):
         return '; '.join(line for line in lines if line)
 
     def fault_description(self) -> str:
-        """The last EMCY and the drive's error code 0x603F (mapped, else read by SDO), the way out."""
-        details = []
-        code = self.read('error_code') if self.node.has_object(*self.key['error_code']) else None
-        if code is None and self.node.has_object(*self.key['error_code']):
-            try:
-                code = _sdo_number(self.node.sdo_read(*self.key['error_code']))
-            except DriveBridgeError:
-                code = None
-        if code:
-            details.append(f'0x603F error code 0x{int(code):04X}')
-        return fault_refusal(self.last_emcy(), details)
+        return self.faults.description()
 
     def way_out(self) -> str:
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
@@ -380,12 +353,7 @@ class Axis(ModeControl):
 
     # -- state ------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:
-        """The newest EMCY of this axis since its last fault reset that explains it: the newest
-        error, else the newest warning (a later warning does not hide the fault's cause)."""
-        history = [e for e in self.node.emcy_history()[self._reset_emcy_count:]
-                   if not e.is_reset and e.slot in (None, self.config.slot)]
-        errors = [e for e in history if e.severity is Severity.ERROR]
-        return errors[-1] if errors else (history[-1] if history else None)
+        return self.faults.last_emcy()
 
     def feedback(self) -> tuple[bool, float, float, float, float]:
         """(available, position, velocity, effort, stamp) in SI: the cheap path for joint states."""

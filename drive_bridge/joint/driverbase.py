@@ -18,6 +18,7 @@ from typing import Any
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.joint.errors import JointError
 from drive_bridge.joint.intents import Intents
+from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.nodeio import NodeIo
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
@@ -111,6 +112,12 @@ class JointDriverBase:
         """For a command: the node is available (no advice, the command is refused at once)."""
         if not self.node.available:
             raise self.error(f'{self.where()}: node not available (NMT {self.node.nmt_state})')
+
+    def check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
+        """A command beyond the joint's limits is refused (``error``)."""
+        problem = limit_problem(self.config.limits, position, velocity, effort)
+        if problem:
+            raise self.error(f'{self.where()}: {problem}')
 
     def wake(self) -> None:
         """New state arrived (the bus' thread): intents waiting on it look again."""

@@ -1,5 +1,9 @@
 """The joint driver of an OPEN drive axis: no CiA 402 state machine, the drive runs on its RUN
-logic function and CAN references (shared/drives/opendrive.md §4, §7).
+logic function and CAN references (shared/drives/opendrive.md §4, §7). This module is the RUN
+logic, the alarms and the fault reset; the references, commands and streaming are
+:mod:`~drive_bridge.families.opendrive.references`', the position
+:mod:`~drive_bridge.families.opendrive.feedback`'s, and the plumbing every joint driver
+shares is the core's ``joint.driverbase.JointDriverBase``.
 
 What goes out (one RPDO by default, decided every cycle by :meth:`RunLogicDriver.on_cycle`):
 

@@ -18,7 +18,6 @@ from drive_bridge.families.opendrive.options import DriveOptions
 from drive_bridge.families.opendrive.units import Units
 from drive_bridge.joint import BufferFeeder, DriveState, NodeIo, Setpoint, SetpointSource
 from drive_bridge.joint.driverbase import JointDriverBase
-from drive_bridge.joint.limits import limit_problem
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.strategy import StreamStrategy
 from drive_bridge.model import AxisConfig, Timeouts
@@ -161,9 +160,7 @@ class References(JointDriverBase):
                 if self.loop is None else ' (the axis\' position loop works in pv)'
             raise RunLogicError(f'{where}: family {self.family!r} takes no position commands (no position '
                                 f'reference on the drive); command velocity in pv or effort in pt{loop}')
-        problem = limit_problem(self.config.limits, position, velocity, effort)
-        if problem:
-            raise RunLogicError(f'{where}: {problem}')
+        self.check_limits(position, velocity, effort)
         units, options = self.units, self.options
         for value, (kind, mode, raw, span, reference) in (
                 (velocity, ('a velocity', PV, units.speed_raw, units.velocity_range,
