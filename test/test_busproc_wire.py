@@ -218,10 +218,10 @@ def test_a_report_taken_before_a_stop_answer_never_undoes_it() -> None:
         bus_stops.send(Reply(request.id, StopOutcome(((joint, ''),), states(State.QUICK_STOP_ACTIVE, 2.0))))
         answer.result(10)
         assert proxy.state is State.QUICK_STOP_ACTIVE
-        bus_requests.send(states(State.OPERATION_ENABLED, 1.0))  # taken before the stop, read after its answer
-        bus_requests.send(CommandRefused('~/commands', 'a marker'))  # read after it: the report was handled
         refused: list[str] = []
         client.add_refusal_listener(lambda topic, reason: refused.append(reason))
+        bus_requests.send(states(State.OPERATION_ENABLED, 1.0))  # taken before the stop, read after its answer
+        bus_requests.send(CommandRefused('~/commands', 'a marker'))  # read after it: the report was handled
         wait_for(lambda: refused, 10, 'the marker after the old report')
         assert proxy.state is State.QUICK_STOP_ACTIVE, 'an older report undid the quick stop'
         bus_requests.send(states(State.SWITCH_ON_DISABLED, 3.0))  # a newer one is applied

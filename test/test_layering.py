@@ -256,10 +256,13 @@ def test_index_detector_misses(line: str) -> None:
 # --- the family boundary --------------------------------------------------------------------------
 
 # Where a family extends the core (docs/families.md): these classes, and any error class.
+# JointDriverBase (joint/driverbase.py): the plumbing every joint driver shares, all of it public; a
+# family's own joint driver (a drive without CiA 402: the OPEN drive's RunLogicDriver) builds on it.
 EXTENSION_POINTS = frozenset({'drive_bridge.families.interface.DriveFamily',
                               'drive_bridge.families.node.FamilyNode',
                               'drive_bridge.families.parameters.ParameterAccess',
-                              'drive_bridge.cia402.quirks.AxisQuirks'})
+                              'drive_bridge.cia402.quirks.AxisQuirks',
+                              'drive_bridge.joint.driverbase.JointDriverBase'})
 # Exceptions: none since issue 23 (the SERVOSTAR and S120 hand the CiA 402 Axis their AxisQuirks
 # instead of subclassing it). Both must stay empty: a family that needs more of the core asks for
 # a hook or a part; remove what is no longer used (the test says so), never add.
@@ -268,8 +271,8 @@ CORE_PRIVATES_USED: dict[str, frozenset[str]] = {}
 
 
 def test_families_subclass_only_extension_points() -> None:
-    """A family's classes subclass DriveFamily, FamilyNode, AxisQuirks, ParameterAccess, error classes
-    or none of the core."""
+    """A family's classes subclass DriveFamily, FamilyNode, ParameterAccess, AxisQuirks,
+    JointDriverBase, error classes or none of the core."""
     wrong, kept = [], set()
     for cls in family_classes():
         for base in cls.__bases__:
@@ -280,7 +283,7 @@ def test_families_subclass_only_extension_points() -> None:
                 kept.add(name)
             else:
                 wrong.append(f'{name} subclasses the core class {base_name}')
-    assert not wrong, ('a family extends the core through DriveFamily, ParameterAccess and error classes only:\n'
+    assert not wrong, ('a family extends the core through the EXTENSION_POINTS and error classes only:\n'
                        + '\n'.join(wrong))
     assert kept == set(AXIS_SUBCLASSES), (
         f'no longer subclassed, remove from AXIS_SUBCLASSES: {set(AXIS_SUBCLASSES) - kept}')
@@ -304,15 +307,15 @@ def test_private_use_finders() -> None:
             def _write(self, key, value): ...  # an override
             def run(self, other):
                 self._mode = 3
-                return other._device_command(), self._own, super()._halt()
+                return other._device_command(), self._own, super()._hold_stale()
 
         def peek(axis):
-            return axis._cond, axis._not_a_core_name
+            return axis._target_state, axis._not_a_core_name
     '''))
     node = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef))
     assert private_uses(node, core_privates(type('Quirky', (Axis,), {}))) == {'_write', '_mode', '_device_command',
-                                                                               '_halt'}
-    assert foreign_uses(tree, any_core_privates()) == {'_device_command', '_cond'}
+                                                                               '_hold_stale'}
+    assert foreign_uses(tree, any_core_privates()) == {'_device_command', '_target_state'}
 
 
 @pytest.mark.parametrize('module, cls', [('interface', 'DriveFamily'), ('node', 'FamilyNode')])

@@ -10,7 +10,7 @@ handshake, homing start, IP enable, HALT) and writes targets. Intents such as
 confirm it. Process data goes through a :class:`NodeIo`, so the same logic serves
 objects mapped in PDOs and objects reached by SDO.
 
-The axis is built from parts: its motion intents (:class:`~drive_bridge.cia402.intents.Intents`),
+The axis is built from parts: its motion intents (:class:`~drive_bridge.joint.intents.Intents`),
 the modes it may take (:class:`~drive_bridge.cia402.modesupport.ModeSupport`), its interpolation
 objects, and the :class:`~drive_bridge.cia402.quirks.AxisQuirks` its drive family hands in where
 the drive differs from the profile (no family subclasses it).
@@ -18,45 +18,25 @@ the drive differs from the profile (no family subclasses it).
 from __future__ import annotations
 
 import math
-import threading
-import time
 from collections.abc import Callable
 from dataclasses import replace
 
-from drive_bridge.cia301.emcy import EmcyEvent, Severity
+from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import statemachine as sm
 from drive_bridge.cia402.drive_limits import describe, with_drive_limits
 from drive_bridge.cia402.errors import AxisError
-from drive_bridge.cia402.intents import Intents
 from drive_bridge.cia402.interpolation import InterpolationObjects
 from drive_bridge.cia402.modecontrol import PP_IDLE, ModeControl
 from drive_bridge.cia402.modes import Mode, mode_name
 from drive_bridge.cia402.modesupport import ModeSupport
 from drive_bridge.cia402.profile import AxisObjects, Cia402Profile, FaultModel, PvtRecord, axis_keys
 from drive_bridge.cia402.quirks import AxisQuirks
+from drive_bridge.cia402.report import DRIVE_STATE, FaultReport
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.errors import DriveBridgeError
 from drive_bridge.joint import AxisSnapshot, DriveState, NodeIo
-from drive_bridge.joint.faults import fault_refusal
-from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig, Timeouts
-
-DRIVE_STATE = {
-    State.UNKNOWN: DriveState.UNAVAILABLE,
-    State.NOT_READY_TO_SWITCH_ON: DriveState.DISABLED,
-    State.SWITCH_ON_DISABLED: DriveState.DISABLED,
-    State.READY_TO_SWITCH_ON: DriveState.READY,
-    State.SWITCHED_ON: DriveState.READY,
-    State.OPERATION_ENABLED: DriveState.ENABLED,
-    State.QUICK_STOP_ACTIVE: DriveState.STOPPING,
-    State.FAULT_REACTION_ACTIVE: DriveState.STOPPING,
-    State.FAULT: DriveState.FAULT,
-}
-
-
-def _sdo_number(value: int | float | str | bytes) -> int | None:
-    return None if isinstance(value, (str, bytes)) else int(value)
 
 
 class Axis(ModeControl):
@@ -65,22 +45,15 @@ class Axis(ModeControl):
     def __init__(self, node: NodeIo, config: AxisConfig, timeouts: Timeouts, cycle_period: float = 0.004,
                  accepted_modes: frozenset[int] | None = None, profile: Cia402Profile | None = None,
                  quirks: AxisQuirks | None = None) -> None:
-        self.node = node
+        super().__init__(node, config, timeouts, cycle_period)  # the period is also 0x60C2's
         self.profile = profile
-        self.config = config
-        self.timeouts = timeouts
-        self.cycle_period = cycle_period  # s; also the interpolation period written to 0x60C2
-        self.joint = config.joint
         slot = config.slot
         self.key = axis_keys(slot, profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot))
         self.interpolation = InterpolationObjects(node, self.key, cycle_period)
         self.pvt: PvtRecord | None = profile.pvt_record(slot) if profile is not None else None
         self.fault_model: FaultModel = profile.fault_model if profile is not None else FaultModel()
-        self._cond = threading.Condition()
-        self.intents = Intents()
         self._target_state: State | None = None
         self._stale_hold = False  # the node's inputs are stale (its intents were dropped)
-        self._halt = False
         self._fault_reset_phase = 0  # 0 idle, 1 reset bit low, 2 reset bit high
         self._reset_bit = self.fault_model.reset_bit  # the bit of the running fault reset
         self._disable_on_return = False  # after the node was configured again (on_node_reset)
@@ -93,19 +66,13 @@ class Axis(ModeControl):
         self._pp_done = 0.0  # statusword stamp when the last handshake completed
         self._homing = False
         self._stop_deceleration: float | None = None
-        self._loop: PositionLoop | None = None
-        self._last_command = 0.0  # monotonic time of the last streamed command
-        self._stale = False
-        self._written: dict[tuple[int, int], int | float] = {}
         self._controlword = 0
-        self._message = ''
-        self._guard = SetpointGuard(cycle_period)
         self._pvt_guard = SetpointGuard(0.0)
         self._pvt_clock = 0.0
         self._setpoint_refused = ''
         self._configured_limits = config.limits
         self._limits_said = ''
-        self._reset_emcy_count = 0
+        self.faults = FaultReport(node, self.key['error_code'], slot)
         # the drive family's list, when 0x6502 under-reports
         if accepted_modes is None and profile is not None:
             accepted_modes = profile.accepted_modes
@@ -119,8 +86,7 @@ class Axis(ModeControl):
         if self.config.estimated_velocity and self.key['position'] in keys:
             self._estimate_velocity(stamp)
         if self.key['statusword'] in keys or self.key['mode_display'] in keys:
-            with self._cond:
-                self._cond.notify_all()
+            self.wake()
 
     def _estimate_velocity(self, stamp: float) -> None:
         """Velocity from two position samples (the drive's 0x606C is in no PDO)."""
@@ -147,18 +113,6 @@ class Axis(ModeControl):
         return self.read('statusword') is not None
 
     @property
-    def node_id(self) -> int:
-        return self.node.node_id
-
-    @property
-    def available(self) -> bool:
-        return self.node.available
-
-    @property
-    def halted(self) -> bool:
-        return self._halt
-
-    @property
     def drive_state(self) -> DriveState:
         """The drive-independent state (unavailable while the node is not)."""
         return DriveState.UNAVAILABLE if not self.node.available else DRIVE_STATE[self.state]
@@ -168,18 +122,9 @@ class Axis(ModeControl):
         statusword = self.read('statusword')
         return State.UNKNOWN if statusword is None else self.quirks.state_of(int(statusword))
 
-    @property
-    def lock(self) -> threading.Condition:
-        """Held around each cycle and intent; notified on each new statusword or mode."""
-        return self._cond
-
-    def say(self, message: str) -> None:
-        with self._cond:
-            self._message = message
-
     def update_config(self, config: AxisConfig) -> None:
         """A configuration with the units the family read at boot (scaling, limits)."""
-        with self._cond:
+        with self.lock:
             self.config = config
             self._stop_deceleration = None
 
@@ -189,9 +134,8 @@ class Axis(ModeControl):
 
     def _write_object(self, name: str, value: int | float) -> None:
         key = self.key[name]
-        if self._written.get(key) != value and (key in self._written or self.node.has_object(*key)):
-            self._written[key] = value
-            self.node.write(*key, value)
+        if key in self.written or self.node.has_object(*key):
+            self.put(key, value)
 
     def on_cycle(self, now: float) -> None:
         """Decide this cycle's controlword, mode and targets (cycle thread, non-blocking)."""
@@ -203,12 +147,12 @@ class Axis(ModeControl):
         if not self.node.available:  # sent to while its TPDOs are stale: the statusword is frozen
             self._hold_stale()
             return
-        with self._cond:
+        with self.lock:
             self._stale_hold = False
             self._notice_drop_out(state)
             command = self._device_command(state)
             mode_bits = self._mode_bits(state, statusword)
-            controlword = command | mode_bits | (sm.CW_HALT if self._halt else 0)
+            controlword = command | mode_bits | (sm.CW_HALT if self.halted else 0)
             self._controlword = controlword
             mode = self._mode
             targets = self.quirks.cycle_targets(state, self._cycle_targets(state, now))
@@ -226,14 +170,14 @@ class Axis(ModeControl):
         """Inputs stale: the drive's real state is unknown, so only a controlword that cannot
         raise any state goes out (quick stop, HALT); the enable intent is dropped, so the
         axis moves again only after an explicit enable."""
-        with self._cond:
+        with self.lock:
             if not self._stale_hold:
                 self._stale_hold = True
                 self._target_state = None
                 self.intents.drop()
-                self._guard.forget()
-                self._message = 'inputs stale: held by quick stop; enable it again to move'
-                self._cond.notify_all()
+                self.guard.forget()
+                self.message = 'inputs stale: held by quick stop; enable it again to move'
+                self.lock.notify_all()
             self._controlword = sm.CMD_QUICK_STOP | sm.CW_HALT
         self._write('controlword', self._controlword)
 
@@ -244,23 +188,23 @@ class Axis(ModeControl):
         if self._last_state is State.OPERATION_ENABLED and state is not State.OPERATION_ENABLED \
                 and self._target_state is State.OPERATION_ENABLED:
             self._target_state = None
-            self._message = f'left operation enabled by itself ({state.label}): enable it again to move'
+            self.message = f'left operation enabled by itself ({state.label}): enable it again to move'
         self._last_state = state
 
     def on_node_reset(self) -> None:
         """The node is configured again (it rebooted, or answers again after it was lost):
         every intent is dropped, and a drive still in operation enabled is disabled, so it is
         never re-enabled by itself."""
-        with self._cond:
+        with self.lock:
             self._target_state = None
             self._disable_on_return = True
             self._fault_reset_phase = 0
             self.intents.drop()
             self._pp_phase = PP_IDLE
-            self._guard.forget()
-            self._message = 'node configured again: enable the axis to move it'
+            self.guard.forget()
+            self.message = 'node configured again: enable the axis to move it'
             self.quirks.on_node_reset()
-            self._cond.notify_all()
+            self.lock.notify_all()
 
     def _device_command(self, state: State) -> int:
         hold = self.quirks.fault_hold(state)
@@ -287,35 +231,19 @@ class Axis(ModeControl):
         return sm.hold_command(state) if command is None else command
 
     # -- intents (any thread but the CAN Notifier) -------------------------------------------
-    def where(self) -> str:
-        return f'axis {self.joint!r} (node {self.node.node_id} {self.node.name}, slot {self.config.slot})'
-
-    def require_available(self) -> None:
-        if not self.node.available:
-            raise AxisError(f'{self.where()}: node not available (NMT {self.node.nmt_state}); '
-                            'wait for it to boot or check its heartbeat')
-
-    def wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
-        deadline = time.monotonic() + timeout
-        with self._cond:
-            while not done():
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    statusword = self.read('statusword')
-                    sw_text = 'no statusword received' if statusword is None else f'statusword 0x{int(statusword):04X}'
-                    raise AxisError(f'{self.where()}: {what} not reached after {timeout * 1000:.0f} ms '
-                                    f'(state {self.state.label}, {sw_text})')
-                self._cond.wait(min(remaining, 0.05))
+    def state_text(self) -> str:
+        statusword = self.read('statusword')
+        sw_text = 'no statusword received' if statusword is None else f'statusword 0x{int(statusword):04X}'
+        return f'state {self.state.label}, {sw_text}'
 
     def fault_text(self) -> str:
-        emcy = self.last_emcy()
-        return f'; last EMCY 0x{emcy.code:04X} {emcy.text}' if emcy else ''
+        return self.faults.emcy_text()
 
     def _go_to(self, target: State, timeout: float | None) -> None:
         self.require_available()
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
             raise AxisError(f'{self.where()}: {self.fault_description()}')
-        with self._cond:
+        with self.lock:
             self._target_state = target
         wait = timeout if timeout is not None else self.timeouts.state_switch * 4
 
@@ -333,9 +261,9 @@ class Axis(ModeControl):
         self._clear_refusal()
 
     def _clear_refusal(self) -> None:
-        with self._cond:
-            if self._setpoint_refused and self._message == self._setpoint_refused:
-                self._message = ''
+        with self.lock:
+            if self._setpoint_refused and self.message == self._setpoint_refused:
+                self.message = ''
             self._setpoint_refused = ''
 
     def _quick_stop_from_cycle(self) -> None:
@@ -353,7 +281,7 @@ class Axis(ModeControl):
     def quick_stop(self, timeout: float | None = None) -> None:
         """Quick stop: the drive ramps down with 0x6085, then (0x605A 0..4) disables."""
         self.require_available()
-        with self._cond:
+        with self.lock:
             self.intents.targets.clear()
             self.intents.source = None
         self._go_to(State.QUICK_STOP_ACTIVE, timeout)
@@ -363,10 +291,10 @@ class Axis(ModeControl):
         IP with no stream feeding the drive, its buffer is cleared first: points left queued
         (a stream aborted by a buffer fault) would otherwise run on their own."""
         self.require_available()
-        if not on and self._halt:
+        if not on and self.halted:
             self._clear_unfed_buffer()
-        with self._cond:
-            self._halt = on
+        with self.lock:
+            self.halted = on
             if on:
                 self.intents.source = None
         if not on:
@@ -383,7 +311,7 @@ class Axis(ModeControl):
                       what: str = 'fault reset (leaving FAULT)',
                       failed: Callable[[], str] = lambda: 'the cause is still present') -> None:
         """A rising edge of controlword ``bit``, then a wait until ``done()`` (the state left FAULT)."""
-        with self._cond:
+        with self.lock:
             self._target_state = State.SWITCH_ON_DISABLED
             self._reset_bit = bit
             self._fault_reset_phase = 1
@@ -391,10 +319,10 @@ class Axis(ModeControl):
         try:
             self.wait(done or (lambda: self.state not in (State.FAULT, State.FAULT_REACTION_ACTIVE)), wait, what)
         except AxisError as exc:
-            with self._cond:
+            with self.lock:
                 self._fault_reset_phase = 0
             raise AxisError(f'{exc}; {failed()}{self.fault_text()}') from None
-        self._reset_emcy_count = len(self.node.emcy_history())
+        self.faults.mark_reset()
 
     def on_booted(self) -> str:
         """After each boot (boot thread): settle the mode (0x6502) and the limits (the drive's
@@ -405,9 +333,9 @@ class Axis(ModeControl):
         except DriveBridgeError as exc:
             limits = self._configured_limits
             lines.append(f'{self.where()}: drive limits not read ({exc}); the configured ones apply')
-        with self._cond:
+        with self.lock:
             self.config = replace(self.config, limits=limits)
-            self._loop = None  # rebuilt with these limits
+            self.loop = None  # rebuilt with these limits
             self._stop_deceleration = None
         said = describe(self.joint, limits)
         if said != self._limits_said:
@@ -416,17 +344,7 @@ class Axis(ModeControl):
         return '; '.join(line for line in lines if line)
 
     def fault_description(self) -> str:
-        """The last EMCY and the drive's error code 0x603F (mapped, else read by SDO), the way out."""
-        details = []
-        code = self.read('error_code') if self.node.has_object(*self.key['error_code']) else None
-        if code is None and self.node.has_object(*self.key['error_code']):
-            try:
-                code = _sdo_number(self.node.sdo_read(*self.key['error_code']))
-            except DriveBridgeError:
-                code = None
-        if code:
-            details.append(f'0x603F error code 0x{int(code):04X}')
-        return fault_refusal(self.last_emcy(), details)
+        return self.faults.description()
 
     def way_out(self) -> str:
         if self.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
@@ -435,12 +353,7 @@ class Axis(ModeControl):
 
     # -- state ------------------------------------------------------------------------------
     def last_emcy(self) -> EmcyEvent | None:
-        """The newest EMCY of this axis since its last fault reset that explains it: the newest
-        error, else the newest warning (a later warning does not hide the fault's cause)."""
-        history = [e for e in self.node.emcy_history()[self._reset_emcy_count:]
-                   if not e.is_reset and e.slot in (None, self.config.slot)]
-        errors = [e for e in history if e.severity is Severity.ERROR]
-        return errors[-1] if errors else (history[-1] if history else None)
+        return self.faults.last_emcy()
 
     def feedback(self) -> tuple[bool, float, float, float, float]:
         """(available, position, velocity, effort, stamp) in SI: the cheap path for joint states."""
@@ -454,7 +367,7 @@ class Axis(ModeControl):
 
     def state_key(self) -> tuple[object, ...]:
         return (self.node.available, self.read('statusword'), self.read('mode_display'), self._controlword,
-                self._stale, self._halt, self._message, self._mode_problem, self.quirks.fault_pending())
+                self.deadman.stale, self.halted, self.message, self._mode_problem, self.quirks.fault_pending())
 
     def snapshot(self) -> AxisSnapshot:
         statusword = self.read('statusword')
@@ -462,9 +375,8 @@ class Axis(ModeControl):
         _available, position, velocity, effort, stamp = self.feedback()
         mode = int(self.read('mode_display') or 0)
         available = self.node.available and statusword is not None
-        return AxisSnapshot(
-            joint=self.joint, node_id=self.node.node_id, node_name=self.node.name, slot=self.config.slot,
-            available=available, nmt_state=self.node.nmt_state,
+        return self.snapshot_of(
+            available=available,
             drive_state=self.drive_state if statusword is not None else DriveState.UNAVAILABLE,
             state=self.state, statusword=sw, controlword=self._controlword,
             mode=mode, mode_name=mode_name(mode), requested_mode=self._mode,
@@ -474,8 +386,7 @@ class Axis(ModeControl):
             target_reached=bool(sw & sm.SW_TARGET_REACHED), internal_limit=bool(sw & sm.SW_INTERNAL_LIMIT),
             following_error=(bool(sw & sm.SW_OMS_13)
                              and self._mode in (Mode.PROFILE_POSITION, Mode.CYCLIC_SYNC_POSITION)),
-            halted=self._halt, command_stale=self._stale, last_emcy=self.last_emcy(),
             setpoint_refused=self._setpoint_refused,
             message=(self.node.boot_error if not self.node.available and self.node.boot_error else '')
-            or self._message or self._mode_problem or (
+            or self.message or self._mode_problem or (
                 'velocity estimated from position (no PDO carries 0x606C)' if self.config.estimated_velocity else ''))

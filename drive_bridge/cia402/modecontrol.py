@@ -1,23 +1,17 @@
 """Per-mode control of a CiA 402 axis: what each mode of operation adds to the controlword
-and writes as targets, decided each cycle, and the mode intents (set_mode, command, home, the
-interpolation buffer). A mixin of :class:`~drive_bridge.cia402.axis.Axis`, which drives the
-state machine and owns the state these methods share.
+and writes as targets, decided each cycle, and the mode intents (set_mode, command, home);
+trajectory streaming is :class:`~drive_bridge.cia402.streamcontrol.StreamControl`'s. A mixin
+of :class:`~drive_bridge.cia402.axis.Axis`, which drives the state machine and owns the state
+these methods share.
 """
 from __future__ import annotations
 
-import math
-import threading
 import time
-from collections.abc import Callable
 from dataclasses import replace
 
-from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402 import bootmodes, statemachine as sm
-from drive_bridge.cia402.drive_limits import stop_deceleration
 from drive_bridge.cia402.errors import AxisError, SetpointRefused
 from drive_bridge.cia402.homing import write_homing_parameters
-from drive_bridge.cia402.intents import Intents
-from drive_bridge.cia402.interpolation import InterpolationObjects
 from drive_bridge.cia402.modes import (
     CYCLIC_MODES,
     POSITION_MODES,
@@ -27,68 +21,29 @@ from drive_bridge.cia402.modes import (
     mode_name,
 )
 from drive_bridge.cia402.modesupport import ModeSupport
-from drive_bridge.cia402.profile import Cia402Profile, PvtRecord, standard_strategy
-from drive_bridge.cia402.quirks import AxisQuirks
-from drive_bridge.cia402.setpoint_check import SetpointChecks, check_targets, seed_hold
+from drive_bridge.cia402.setpoint_check import check_targets, seed_hold
 from drive_bridge.cia402.statemachine import State
-from drive_bridge.joint import BufferFeeder, NodeIo, Setpoint, SetpointSource
-from drive_bridge.joint.limits import limit_problem
+from drive_bridge.cia402.streamcontrol import StreamControl
+from drive_bridge.joint import Setpoint
 from drive_bridge.joint.position_loop import PositionLoop
 from drive_bridge.joint.strategy import StreamStrategy
-from drive_bridge.model import AxisConfig, PositionLoopConfig, Timeouts
+from drive_bridge.model import PositionLoopConfig
 
 PP_IDLE, PP_STAGED, PP_EDGE, PP_RELEASE = range(4)
 AUTO_LOOP = PositionLoopConfig(gain=10.0)  # 1/s: the loop of an axis put in pv at boot without one
 
 
-class ModeControl(SetpointChecks):
+class ModeControl(StreamControl):
     """Modes of operation of one axis: profile position handshake, homing, interpolated
     position (linear and the family's PVT), cyclic set-points with the command dead-man."""
 
     # shared with the state-machine driver (set in Axis.__init__)
-    node: NodeIo
-    config: AxisConfig
-    timeouts: Timeouts
-    cycle_period: float
-    profile: Cia402Profile | None
-    pvt: PvtRecord | None
-    key: dict[str, tuple[int, int]]
     modes: ModeSupport
-    _cond: threading.Condition
-    intents: Intents
-    quirks: AxisQuirks
-    interpolation: InterpolationObjects
-    _halt: bool
-    _mode: int
     _pp_phase: int
     _pp_done: float
     _homing: bool
-    _stop_deceleration: float | None
-    _last_command: float
-    _stale: bool
-    _written: dict[tuple[int, int], int | float]
-    _message: str
-    _loop: PositionLoop | None  # the bridge's position loop (velocity modes, StreamStrategy.POSITION_LOOP)
-    _mode_problem: str  # why the axis has no usable mode ('' when it has one)
 
-    # provided by the state-machine driver
-    @property
-    def state(self) -> State:
-        raise NotImplementedError
-
-    def read(self, name: str) -> int | float | None:
-        raise NotImplementedError
-
-    def where(self) -> str:
-        raise NotImplementedError
-
-    def require_available(self) -> None:
-        raise NotImplementedError
-
-    def wait(self, done: Callable[[], bool], timeout: float, what: str) -> None:
-        raise NotImplementedError
-
-    def fault_text(self) -> str:
+    def fault_text(self) -> str:  # provided by the state-machine driver
         raise NotImplementedError
 
     # -- each cycle -------------------------------------------------------------------------
@@ -135,21 +90,19 @@ class ModeControl(SetpointChecks):
                 hold['target_position'] = int(actual)
             if state is not State.OPERATION_ENABLED:  # commands never survive a drop-out
                 self.intents.drop()
-                self._stale = False
+                self.deadman.stale = False
             written = hold if not self.intents.targets else {**hold, **self.intents.targets}
-            seed_hold(self._guard, self.config, written, now)
+            seed_hold(self.guard, self.config, written, now)
             return written
         if self.intents.source is not None:
             setpoint = self.intents.source(now)
             if setpoint is not None:
                 self._apply_setpoint(setpoint)
         looped = self.intents.loop_target is not None and self._looped()
-        stale = self._stale
-        if (mode in CYCLIC_MODES or looped) and self._last_command and \
-                time.monotonic() - self._last_command > self.timeouts.command_timeout and not self._stale:
-            self._stale = True
-            self._message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
-                             f'{mode_name(mode)}: holding position')
+        stale = self.deadman.stale
+        if (mode in CYCLIC_MODES or looped) and self.deadman.expired(self.timeouts.command_timeout):
+            self.message = (f'no command for {self.timeouts.command_timeout * 1000:.0f} ms in '
+                            f'{mode_name(mode)}: holding position')
             self.intents.targets = {'target_velocity': 0, 'target_torque': 0}
             if looped and self.intents.loop_target is not None:  # the loop holds the last desired position
                 self.intents.loop_target = (self.intents.loop_target[0], 0.0)
@@ -157,11 +110,11 @@ class ModeControl(SetpointChecks):
                 self.intents.targets['target_position'] = int(actual)
         if looped and actual is not None:
             self._close_loop(actual)
-        if self._stale and not stale:  # the dead-man holds where the drive is: no step to check
-            seed_hold(self._guard, self.config, self.intents.targets, now)
+        if self.deadman.stale and not stale:  # the dead-man holds where the drive is: no step to check
+            seed_hold(self.guard, self.config, self.intents.targets, now)
         else:
             intents = self.intents
-            problem = check_targets(self._guard, self.config, mode, looped, intents.targets, intents.ip_point, now)
+            problem = check_targets(self.guard, self.config, mode, looped, intents.targets, intents.ip_point, now)
             if problem is not None:
                 self._refuse_setpoint(problem, actual)
         return dict(self.intents.targets)
@@ -170,38 +123,22 @@ class ModeControl(SetpointChecks):
         """One step of the bridge's position loop: 0x60FF from the desired state and the
         measured position; beyond the following-error limit a trajectory stream stops with HALT."""
         assert self.intents.loop_target is not None
-        if self._loop is None:
-            self._loop = PositionLoop(self.config.position_loop, self.config.limits)
+        if self.loop is None:
+            self.loop = PositionLoop(self.config.position_loop, self.config.limits)
         scaling = self.config.scaling
-        position, velocity = self.intents.loop_target
-        out = self._loop.step(position, velocity, scaling.position_to_si(actual), self.cycle_period,
-                              abs(scaling.position_factor))
-        if out.exceeded and self.intents.source is not None:  # supervised while a trajectory streams;
-            self._halt = True                            # a direct command is a step on purpose
-            self.intents.source = None
-            self.intents.loop_target = None
-            self._loop.reset()
-            self._message = (f'following error {out.error:.4g} beyond the position loop limit '
-                             f'{self.config.position_loop.following_error:.4g}: stream aborted, axis held (HALT)')
-            self.intents.targets['target_velocity'] = 0
-            return
-        self.intents.targets['target_velocity'] = scaling.velocity_to_device(out.velocity)
+        velocity = self.loop_velocity(scaling.position_to_si(actual), 'HALT', abs(scaling.position_factor))
+        self.intents.targets['target_velocity'] = 0 if velocity is None else scaling.velocity_to_device(velocity)
 
     def _apply_setpoint(self, setpoint: Setpoint) -> None:
         refusal = self.quirks.setpoint_refusal(setpoint)
         if refusal:  # never sent: the stream stops, the axis holds its last set-point (HALT)
             self.intents.source = None
-            self._halt = True
-            self._message = refusal
+            self.halted = True
+            self.message = refusal
             return
         scaling = self.config.scaling
         if setpoint.position is not None and self._looped():
-            if self.intents.loop_target is None and self._loop is not None:
-                self._loop.reset(self._actual_velocity())
-                self._guard.rebase('velocity', self._actual_velocity())
-            self.intents.loop_target = (setpoint.position, setpoint.velocity or 0.0)
-            self._last_command = time.monotonic()
-            self._stale = False
+            self.follow_position(setpoint.position, setpoint.velocity, self._actual_velocity())
             return
         if setpoint.position is not None and self._mode == Mode.INTERPOLATED_POSITION:
             self.intents.ip_point = scaling.position_to_device(setpoint.position)
@@ -211,8 +148,8 @@ class ModeControl(SetpointChecks):
             self.intents.targets['target_velocity'] = scaling.velocity_to_device(setpoint.velocity)
         if setpoint.effort is not None:
             self.intents.targets['target_torque'] = scaling.effort_to_device(setpoint.effort)
-        self._last_command = time.monotonic()
-        self._stale = False
+        self.deadman.last = time.monotonic()
+        self.deadman.stale = False
 
     def _settle_mode(self) -> str:
         """After each boot of the node (boot thread): read 0x6502 and settle the axis' mode (the
@@ -227,7 +164,7 @@ class ModeControl(SetpointChecks):
         chosen = bootmodes.pick(self.config.mode, auto, supported, inferred)
         if auto is not None and chosen.mode in (Mode.INTERPOLATED_POSITION, Mode.CYCLIC_SYNC_POSITION):
             self.interpolation.write_period(chosen.mode == Mode.INTERPOLATED_POSITION, self.config.ip_submode)
-        with self._cond:
+        with self.lock:
             self.modes.supported = None if inferred else supported
             self._mode_problem = chosen.problem
             if auto is not None and not chosen.problem and chosen.mode != self._mode:
@@ -238,10 +175,6 @@ class ModeControl(SetpointChecks):
                 self.intents.targets.clear()
                 self.intents.source = None
         return f'{self.where()}: {chosen.problem or chosen.note}'
-
-    def _require_mode(self) -> None:
-        if self._mode_problem:
-            raise AxisError(f'{self.where()}: {self._mode_problem}')
 
     def set_mode(self, mode: int | str, timeout: float | None = None) -> None:
         """Write 0x6060 and wait until 0x6061 confirms it."""
@@ -262,7 +195,7 @@ class ModeControl(SetpointChecks):
         self._mode_problem = ''  # the drive took it
 
     def _request_mode(self, code: int) -> None:
-        with self._cond:
+        with self.lock:
             if code != self._mode:
                 self.intents.drop()
                 self._pp_phase = PP_IDLE
@@ -276,98 +209,26 @@ class ModeControl(SetpointChecks):
             self.wait(lambda: self.read('mode_display') == previous, self.timeouts.mode_switch,
                        f'previous mode {mode_name(previous)} (0x6061)')
         except AxisError:
-            with self._cond:
-                self._halt = True
-                self._message = (f'mode {mode_name(refused)} not confirmed and the previous mode '
-                                 f'{mode_name(previous)} not either (0x6061 = {self.read("mode_display")}): '
-                                 'axis held (HALT)')
+            with self.lock:
+                self.halted = True
+                self.message = (f'mode {mode_name(refused)} not confirmed and the previous mode '
+                                f'{mode_name(previous)} not either (0x6061 = {self.read("mode_display")}): '
+                                'axis held (HALT)')
             return f'the previous mode {mode_name(previous)} was not confirmed either: axis held (HALT)'
         return f'the previous mode {mode_name(previous)} is restored'
-
-    def _clear_unfed_buffer(self) -> None:
-        """Clear the drive's interpolation buffer (0x60C4:6 = 0, 1) if the axis is in IP and
-        no stream feeds it: nothing the bridge still wants is queued there."""
-        with self._cond:
-            intents = self.intents
-            unfed = self._mode == Mode.INTERPOLATED_POSITION and intents.feeder is None and intents.source is None
-        if unfed:
-            self.interpolation.clear_buffer()
-
-    def stop_deceleration(self) -> float:
-        """Deceleration (SI, > 0) for a controlled stop, derived once: the family's (its quirks),
-        else the configured max_acceleration, else the drive's profile deceleration 0x6084."""
-        if self._stop_deceleration is None:
-            self._stop_deceleration = self.quirks.stop_deceleration()
-        if self._stop_deceleration is None:
-            self._stop_deceleration = stop_deceleration(self.node, self.config)
-        return self._stop_deceleration
-
-    def set_buffer_feeder(self, feeder: BufferFeeder | None) -> None:
-        """A stream that pushes interpolation points (PVT) while the drive's buffer has room."""
-        with self._cond:
-            self.intents.feeder = feeder
-            self.intents.source = None if feeder is not None else self.intents.source
-
-    def interpolation_free_slots(self) -> int | None:
-        """Free places in the drive's interpolation buffer (0x60C4:2), None if unknown."""
-        value = self.read('ip_free')
-        return None if value is None else int(value)
-
-    def pvt_time_unit(self) -> float | None:
-        """Seconds per unit of a PVT point's time (None: the family has no PVT)."""
-        return self.pvt.time_unit if self.pvt is not None else None
-
-    def push_interpolation_point(self, position: int, time_units: int, velocity: int) -> None:
-        """Write one PVT point (device units) into the family's record: velocity, time, then
-        position, sent together this cycle; the drive buffers it at the next SYNC."""
-        if self.pvt is None:
-            raise AxisError(f'{self.where()}: the drive family has no PVT interpolation')
-        if not self._pvt_point_allowed(position, time_units, velocity):
-            return
-        self.node.write(*self.pvt.velocity, velocity)
-        self.node.write(*self.pvt.time, time_units)
-        self.node.write(*self.pvt.position, position)
-
-    def check_trajectory(self, has_positions: bool, has_velocities: bool) -> None:
-        """A CiA 402 axis follows any trajectory its streaming mode takes; a velocity-only
-        one only in a velocity mode (its positions are integrated, not measured)."""
-        self.quirks.check_trajectory(has_positions, has_velocities)
-        self._require_mode()
-        if not has_positions and self.stream_strategy() != StreamStrategy.CYCLIC_VELOCITY:
-            raise AxisError(f'{self.where()}: a trajectory without positions needs a velocity streaming '
-                            f'mode (csv); mode is {mode_name(self._mode)}')
 
     def command_field(self) -> str | None:
         """Which value a direct command of the current mode carries: position, velocity or effort."""
         return self.quirks.command_field(self._mode)
 
-    def stream_strategy(self) -> StreamStrategy | None:
-        """How trajectories are streamed in the requested mode (the family decides); a
-        velocity mode with the axis' ``position_loop`` set streams through the bridge's loop."""
-        if self.config.position_loop.enabled and self._mode in VELOCITY_MODES:
-            return StreamStrategy.POSITION_LOOP
-        if self.profile is not None:
-            return self.profile.streaming_strategy(self._mode, self.config.ip_submode)
-        return standard_strategy(self._mode, self.config.ip_submode, None)
-
     def _actual_velocity(self) -> float:
         value = self.read('velocity')
         return self.config.scaling.velocity_to_si(value) if value is not None else 0.0
-
-    def is_stream_fault(self, event: EmcyEvent) -> bool:
-        """The family says this EMCY reports an interpolation buffer underflow/overflow."""
-        return (self.profile is not None and event.node_id == self.node.node_id
-                and self.profile.is_stream_fault(event))
 
     @property
     def mode(self) -> int:
         """The mode the bridge requests (0x6060)."""
         return self._mode
-
-    def check_limits(self, position: float | None, velocity: float | None, effort: float | None) -> None:
-        problem = limit_problem(self.config.limits, position, velocity, effort)
-        if problem:
-            raise AxisError(f'{self.where()}: {problem}')
 
     def check_command(self, position: float | None = None, velocity: float | None = None,
                       effort: float | None = None) -> None:
@@ -383,8 +244,7 @@ class ModeControl(SetpointChecks):
             raise AxisError(f'{self.where()}: a velocity command needs a velocity mode; mode is {mode_name(mode)}')
         if effort is not None and mode not in TORQUE_MODES and mode not in CYCLIC_MODES:
             raise AxisError(f'{self.where()}: an effort command needs a torque mode; mode is {mode_name(mode)}')
-        if not self.node.available:
-            raise AxisError(f'{self.where()}: node not available (NMT {self.node.nmt_state})')
+        self.require_alive()
         if self.state is not State.OPERATION_ENABLED:
             raise AxisError(f'{self.where()}: {self.state.label}, not operation enabled; {self.way_out()}')
         try:
@@ -401,31 +261,14 @@ class ModeControl(SetpointChecks):
         """
         self.check_command(position, velocity, effort)
         mode = self._mode
-        with self._cond:
+        with self.lock:
             self.intents.source = None
             self._apply_setpoint(Setpoint(position, velocity if mode in VELOCITY_MODES else None,
                                           effort if mode in TORQUE_MODES else None))
             if mode == Mode.PROFILE_POSITION and position is not None:
                 self._pp_phase = PP_STAGED
             if mode not in CYCLIC_MODES and not self._looped():
-                self._last_command = 0.0  # profile modes keep their target: no dead-man
-
-    def commanded_position(self) -> float:
-        """SI position the drive is commanded to now (last target written), else the actual."""
-        sent = self.quirks.commanded_position()
-        if sent is not None:
-            return self.config.scaling.position_to_si(sent)
-        target = self._written.get(self.key['target_position'])
-        if target is None or self.state is not State.OPERATION_ENABLED:
-            target = self.read('position')
-        return self.config.scaling.position_to_si(target) if target is not None else math.nan
-
-    def set_setpoint_source(self, source: SetpointSource | None) -> None:
-        """A function sampled each cycle (trajectory streaming); None stops sampling."""
-        with self._cond:
-            self.intents.source = source
-            if source is None:
-                self._last_command = time.monotonic()  # the dead-man then holds if nothing follows
+                self.deadman.last = 0.0  # profile modes keep their target: no dead-man
 
     def home(self, timeout: float | None = None) -> None:
         """Run the drive's homing (0x6098 method etc. from the config, else the drive's own)."""
@@ -436,7 +279,7 @@ class ModeControl(SetpointChecks):
         write_homing_parameters(self.node, self.config)
         self.set_mode(Mode.HOMING)
         wait = timeout if timeout is not None else self.timeouts.homing
-        with self._cond:
+        with self.lock:
             self._homing = True
 
         def finished() -> bool:
@@ -450,7 +293,7 @@ class ModeControl(SetpointChecks):
         try:
             self.wait(finished, wait, 'homing attained')
         finally:
-            with self._cond:
+            with self.lock:
                 self._homing = False
         if previous != Mode.HOMING:
             self.set_mode(previous)

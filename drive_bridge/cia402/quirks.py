@@ -33,11 +33,11 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from drive_bridge.cia402 import statemachine as sm
-from drive_bridge.cia402.intents import Intents
 from drive_bridge.cia402.modes import POSITION_MODES, TORQUE_MODES, VELOCITY_MODES, parse_mode
 from drive_bridge.cia402.profile import FaultModel
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.joint import NodeIo, Setpoint
+from drive_bridge.joint.intents import Intents
 from drive_bridge.model import AxisConfig, Timeouts
 
 Output = tuple[str, int | float]  # (key name, value)

@@ -5,14 +5,12 @@ which only name a goal the drive ramps to itself (pp, pv, pt, homing); what a re
 (:class:`SetpointChecks`, a mixin of the axis), also for PVT points and direct commands."""
 from __future__ import annotations
 
-import threading
 from collections.abc import Mapping
 
-from drive_bridge.cia402.errors import SetpointRefused
-from drive_bridge.cia402.intents import Intents
+from drive_bridge.cia402.errors import AxisError, SetpointRefused
 from drive_bridge.cia402.modes import CYCLIC_MODES, VELOCITY_MODES, Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.joint import NodeIo
+from drive_bridge.joint.driverbase import JointDriverBase
 from drive_bridge.joint.setpoint_guard import SetpointGuard
 from drive_bridge.model import AxisConfig
 
@@ -58,24 +56,15 @@ def seed_hold(guard: SetpointGuard, config: AxisConfig, targets: Mapping[str, in
     guard.seed('velocity', scaling.velocity_to_si(velocity) if velocity is not None else None, now)
 
 
-class SetpointChecks:
+class SetpointChecks(JointDriverBase):
     """The refusals of the axis' set-point checks (state shared with the CiA 402 axis)."""
 
-    node: NodeIo
-    config: AxisConfig
+    error = AxisError
     pvt: PvtRecord | None
-    _cond: threading.Condition
-    intents: Intents
-    _halt: bool
     _mode: int
-    _message: str
-    _guard: SetpointGuard  # the last check of every commanded set-point
     _pvt_guard: SetpointGuard  # the same for PVT points, on the points' own time line
     _pvt_clock: float  # s: the sum of the pushed points' times
     _setpoint_refused: str  # why the last set-point was refused ('' since the axis was enabled again)
-
-    def where(self) -> str:
-        raise NotImplementedError
 
     def read(self, name: str) -> int | float | None:
         raise NotImplementedError
@@ -93,7 +82,7 @@ class SetpointChecks:
         """A set-point beyond the limits is never written: the stream or command is dropped,
         the targets hold the last good position (else the measured one), the axis is held
         (HALT or quick stop, ``limits.on_violation``) and the cause reported once."""
-        last = self._guard.last.get('position')
+        last = self.guard.last.get('position')
         scaling = self.config.scaling
         hold = scaling.position_to_device(last[0]) if last is not None else actual
         self.intents.drop()
@@ -104,10 +93,10 @@ class SetpointChecks:
         if reaction == 'quick_stop':
             self._quick_stop_from_cycle()
         else:
-            self._halt = True
+            self.halted = True
         self._setpoint_refused = (f'set-point refused before it was written: {problem}; axis held '
                                   f'({"quick stop" if reaction == "quick_stop" else "HALT"}, limits.on_violation)')
-        self._message = self._setpoint_refused
+        self.message = self._setpoint_refused
         self.node.report_setpoint_refused(self.config.joint, f'{self.where()}: {self._setpoint_refused}')
 
     def _check_step(self, position: float | None, velocity: float | None) -> None:
@@ -123,9 +112,9 @@ class SetpointChecks:
         scaling = self.config.scaling
         problem = None
         if position is not None:
-            problem = self._guard.step_problem(self.config.limits, 'position', position, abs(scaling.position_factor))
+            problem = self.guard.step_problem(self.config.limits, 'position', position, abs(scaling.position_factor))
         elif velocity is not None and self._mode in VELOCITY_MODES:
-            problem = self._guard.step_problem(self.config.limits, 'velocity', velocity, abs(scaling.velocity_factor))
+            problem = self.guard.step_problem(self.config.limits, 'velocity', velocity, abs(scaling.velocity_factor))
         if problem is not None:
             raise SetpointRefused(f'{self.where()}: {problem}')
 
@@ -147,7 +136,7 @@ class SetpointChecks:
             self._pvt_guard.forget()
         if problem is None:
             return True
-        with self._cond:
+        with self.lock:
             self.intents.feeder = None
             self._refuse_setpoint(f'PVT point: {problem}', self.read('position'))
         return False

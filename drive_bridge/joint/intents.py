@@ -1,18 +1,18 @@
-"""What a CiA 402 axis has been asked to move by: the motion intents the cycle turns into
-targets. They are dropped together (a drop-out, stale inputs, a node reset, a mode change, a
-refused set-point), so they live in one record with one :meth:`Intents.drop`."""
+"""What a joint driver has been asked to move by: the motion intents the cycle turns into
+targets or references. They are dropped together (a drop-out, stale inputs, a node reset, a mode
+change, a refused set-point), so they live in one record with one :meth:`Intents.drop`."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from drive_bridge.joint import BufferFeeder, SetpointSource
+from drive_bridge.joint.driver import BufferFeeder, SetpointSource
 
 
 @dataclass
 class Intents:
-    """The axis' motion intents (guarded by the axis' lock)."""
+    """A driver's motion intents (guarded by its lock)."""
 
-    targets: dict[str, int] = field(default_factory=dict)  # device units, by target key name
+    targets: dict[str, int] = field(default_factory=dict)  # device units, by target key name (CiA 402)
     source: SetpointSource | None = None  # sampled each cycle (trajectory streaming)
     feeder: BufferFeeder | None = None  # IP PVT: pushes points while the buffer has room
     ip_point: int | None = None  # IP linear: this cycle's 0x60C1:1, sent every cycle
