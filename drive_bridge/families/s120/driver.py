@@ -8,7 +8,7 @@ as :class:`S120Quirks`).
   target the axis decides is also written there, converted, while the axis is in vl (else 0).
 - No target position: the S120 has no 0x607A (no position mode through CANopen), so the axis'
   "follow the actual position" write of the position target is never sent. Position control is
-  the bridge's loop over 0x60FF (the family's ``default_position_loop``).
+  the bridge's loop over 0x60FF (the family's ``modes.default_position_loop``).
 - Fault acknowledge: 0x1003:00 = 0 (§6.3; it acknowledges the faults of every drive object of the
   Control Unit) as well as the controlword bit 7 edge of this axis.
 - Stop deceleration without a ``max_acceleration`` limit: the drive's ramp-down p1082 / p1121.
