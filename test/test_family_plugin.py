@@ -1,7 +1,10 @@
 """A drive family from outside the package, found through the ``drive_bridge.families``
-entry point: its boot-up shows as an EMCY, it has no heartbeat and is supervised by node
-guarding, and its EMCYs carry the axis and a severity in the manufacturer bytes. The bridge
-boots, supervises and decodes its simulated drive with no change to drive_bridge.
+entry point, with the three parts docs/families.md names: the description (``DriveFamily``:
+its boot-up shows as an EMCY, it has no heartbeat and is supervised by node guarding, and its
+EMCYs carry the axis and a severity in the manufacturer bytes), the per-node part
+(``FamilyNode``: what its boot reads of one node) and the axis quirks (``AxisQuirks``: its own
+name for a mode). The bridge boots, supervises, decodes and drives its simulated drive with no
+change to drive_bridge.
 
 The plugin is a module and a ``.dist-info`` written into a temporary directory put on
 ``sys.path``, as an installed integrator's package would be: importlib.metadata finds its
@@ -32,8 +35,11 @@ FACTOR = 3
 PLUGIN = textwrap.dedent('''
     """ACME servo drives: boot-up by EMCY 0xACB0, node guarding only, axis and severity in
     the EMCY's manufacturer bytes (byte 3 = axis slot, byte 4 = 1 warning / 2 fault); the boot
-    reads each drive's device type into the node's own part."""
+    reads each drive's device type into the node's own part; the drive calls cyclic synchronous
+    velocity "acme_speed"."""
     from drive_bridge.cia301.emcy import Severity
+    from drive_bridge.cia402.axis import Axis
+    from drive_bridge.cia402.quirks import AxisQuirks
     from drive_bridge.families import (AxisTraits, BootDetection, BootTraits, DriveFamily, FamilyNode, Liveness,
                                        get_family)
     from drive_bridge.sim import SimDrive402, register_simulator
@@ -42,10 +48,18 @@ PLUGIN = textwrap.dedent('''
     TEXTS = {0xFF10: 'ACME motor winding too hot', 0xFF20: 'ACME encoder signal weak'}
 
 
+    class AcmeQuirks(AxisQuirks):
+        def parse_mode(self, mode):
+            return 9 if mode == 'acme_speed' else super().parse_mode(mode)
+
+
     class AcmeNode(FamilyNode):
         def __init__(self, family, config):
             super().__init__(family, config)
             self.device_type = None  # learned by the boot, of this node only
+
+        def create_joint_driver(self, node, axis, timeouts, cycle_period):
+            return Axis(node, axis, timeouts, cycle_period, profile=self.family, quirks=AcmeQuirks())
 
         def boot_steps_before(self, node):
             return (('ACME device type 0x1000', self._read_device_type),)
@@ -149,6 +163,17 @@ def test_boots_on_the_bootup_emcy_and_is_supervised_by_guarding(plugin: None) ->
         axis = master.axes['wrist_joint']
         axis.enable(timeout=2.0)
         assert axis.feedback()[0]
+
+
+def test_the_axis_takes_the_family_s_own_mode_name_through_its_quirks(plugin: None) -> None:
+    config = config_from(bus(unique_channel('acme')))
+    with running(config) as (master, sim):
+        axis = master.axes['wrist_joint']
+        assert type(axis.quirks).__name__ == 'AcmeQuirks'  # type: ignore[attr-defined]
+        axis.set_mode('acme_speed', timeout=2.0 + BUSY_SLACK)
+        assert sim.drive(NODE).value(0x6061) == 9  # cyclic synchronous velocity, on the drive
+        with pytest.raises(Exception, match='acme_fast'):  # any other name is the profile's to refuse
+            axis.set_mode('acme_fast')
 
 
 def test_emcy_decoded_by_the_family_with_axis_and_severity(plugin: None) -> None:
