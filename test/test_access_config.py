@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from configtools import load_yaml, problems
-from drive_bridge.model import AccessConfig, ObjectRange
+from drive_bridge.access_rules import AccessConfig, ObjectRange
 
 NODES = """
 nodes:

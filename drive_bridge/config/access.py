@@ -12,9 +12,7 @@ import re
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
-from drive_bridge.config.errors import Issues, Loc
-from drive_bridge.config.reader import Section, describe, parse_int_text, suggestion
-from drive_bridge.model import (
+from drive_bridge.access_rules import (
     EVERY_OBJECT,
     AccessConfig,
     NodeRule,
@@ -23,6 +21,8 @@ from drive_bridge.model import (
     SafetyAllowance,
     safety_name,
 )
+from drive_bridge.config.errors import Issues, Loc
+from drive_bridge.config.reader import Section, describe, parse_int_text, suggestion
 
 ACCESS = ('read_only', 'sdo_read', 'sdo_write', 'store_restore', 'nmt', 'param_read', 'param_write', 'param_save',
           'safety_objects')

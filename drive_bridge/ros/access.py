@@ -6,10 +6,10 @@ A refusal is an :class:`AccessRefused` whose message starts with the service and
 """
 from __future__ import annotations
 
+from drive_bridge.access_rules import AccessConfig, NodeRule, ObjectRule
 from drive_bridge.busproc.client import BusClient
 from drive_bridge.families.interface import RESTORE_DEFAULT_PARAMETERS, STORE_PARAMETERS, DriveFamily
 from drive_bridge.families.parameters import ParameterAccess
-from drive_bridge.model import AccessConfig, NodeRule, ObjectRule
 from drive_bridge.ros.errors import AccessRefused
 
 HOW = 'allow it in the bus configuration'
