@@ -183,7 +183,7 @@ def test_family_hooks_without_a_bus() -> None:
     family = get_family('opendrive')
     assert not family.axes.has_cia402 and family.axes.max_count == 1 and not family.boot.has_heartbeat
     assert family.pdo.comm_subindices == frozenset({1, 2, 3, 5})
-    assert family.accepted_modes == frozenset({3, 4})
+    assert family.modes.accepted == frozenset({3, 4})
     alarm = family.decode_emcy(NODE, 'opendrive', bytes.fromhex('00 10 03 08 00 00 00 00'), 0.0)  # §6.14
     assert (alarm.code, alarm.register, alarm.severity, alarm.is_reset) == (0x1000, 0x03, Severity.ERROR, False)
     assert alarm.text == 'alarm A3 overcurrent' and alarm.slot == 0

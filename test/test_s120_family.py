@@ -573,7 +573,7 @@ def test_family_hooks_without_a_bus() -> None:
     assert [(p.event_timer, p.transmission) for p in tpdos] == [(10, 254), (10, 254)]
     assert family.axis_objects(2).target_velocity == (0x70FF, 0) and family.axis_objects(0).effort_actual == (
         0x6077, 0)
-    assert family.accepted_modes == frozenset({2, 3, 4})
+    assert family.modes.accepted == frozenset({2, 3, 4})
     assert family.streaming_strategy(3, 0) is None  # pv streams only through the position loop
     values, errors = family.parse_axis_options({'gear_ratio': 3, 'offset': 0.5, 'metres_per_revolution': 0.01})
     assert values == {'gear_ratio': 3.0, 'offset': 0.5, 'metres_per_revolution': 0.01} and not errors

@@ -51,7 +51,7 @@ class Axis(ModeControl):
         self.key = axis_keys(slot, profile.axis_objects(slot) if profile is not None else AxisObjects.cia402(slot))
         self.interpolation = InterpolationObjects(node, self.key, cycle_period)
         self.pvt: PvtRecord | None = profile.pvt_record(slot) if profile is not None else None
-        self.fault_model: FaultModel = profile.fault_model if profile is not None else FaultModel()
+        self.fault_model: FaultModel = profile.axes.fault_model if profile is not None else FaultModel()
         self._target_state: State | None = None
         self._stale_hold = False  # the node's inputs are stale (its intents were dropped)
         self._fault_reset_phase = 0  # 0 idle, 1 reset bit low, 2 reset bit high
@@ -75,7 +75,7 @@ class Axis(ModeControl):
         self.faults = FaultReport(node, self.key['error_code'], slot)
         # the drive family's list, when 0x6502 under-reports
         if accepted_modes is None and profile is not None:
-            accepted_modes = profile.accepted_modes
+            accepted_modes = profile.modes.accepted
         self.modes = ModeSupport(node, self.key['supported_modes'], accepted_modes)
         self.quirks = quirks if quirks is not None else AxisQuirks()
         self.quirks.attach(self)

@@ -76,19 +76,37 @@ class FaultModel:
     reset_bit: int = 7  # controlword bit whose rising edge resets the fault
 
 
+class ProfileModes(Protocol):
+    """The modes part of a profile (a family's ``ModeTraits`` record fits it)."""
+
+    @property
+    def accepted(self) -> frozenset[int] | None:
+        """The modes the drive takes; None: trust 0x6502."""
+        ...
+    @property
+    def pvt_submode(self) -> int | None:
+        """The 0x60C0 code of the family's PVT interpolation; None: it has none."""
+        ...
+
+
+class ProfileAxes(Protocol):
+    """The axes part of a profile (a family's ``AxisTraits`` record fits it)."""
+
+    @property
+    def fault_model(self) -> FaultModel: ...
+
+
 class Cia402Profile(Protocol):
-    """The family side of a CiA 402 axis (implemented by ``DriveFamily``)."""
+    """The family side of a CiA 402 axis (implemented by ``DriveFamily``). Its ``modes`` and
+    ``axes`` are typed by what the axis reads of them, so the core needs not know the family's
+    trait records."""
 
     @property
     def name(self) -> str: ...
     @property
-    def accepted_modes(self) -> frozenset[int] | None:
-        """The modes the drive takes; None: trust 0x6502."""
-        ...
+    def modes(self) -> ProfileModes: ...
     @property
-    def pvt_submode(self) -> int | None: ...
-    @property
-    def fault_model(self) -> FaultModel: ...
+    def axes(self) -> ProfileAxes: ...
 
     def axis_objects(self, slot: int) -> AxisObjects: ...
     def pvt_record(self, slot: int) -> PvtRecord | None: ...

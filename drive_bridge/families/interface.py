@@ -13,7 +13,7 @@ streaming and the ROS layer ask the family and never test a vendor name.
 | how are PDOs configured?         | ``pdo`` (configuration, comm_subindices), ``select_pdo``, ``sent_on_write`` |
 | which objects carry the values?  | ``axis_objects``                                       |
 | what does an EMCY mean?          | ``decode_emcy``, ``is_stream_fault``                   |
-| which modes, streamed how?       | ``modes`` (``accepted_modes``, ``pvt_submode``),       |
+| which modes, streamed how?       | ``modes`` (``accepted``, ``pvt_submode``),             |
 |                                  | ``streaming_strategy``, ``pvt_record``                 |
 | what is a fault, how is it reset?| ``axes`` (``fault_model``)                             |
 | which writes store or restore?   | ``stores_parameters`` (and ``ParameterAccess.stores``) |
@@ -46,7 +46,7 @@ from canopen import ObjectDictionary
 from drive_bridge.cia301.emcy import EmcyEvent, decode_emcy
 from drive_bridge.cia301.vendors import vendor_name as cia301_vendor_name
 from drive_bridge.cia402 import objects as obj
-from drive_bridge.cia402.profile import AxisObjects, FaultModel, PvtRecord, standard_strategy
+from drive_bridge.cia402.profile import AxisObjects, PvtRecord, standard_strategy
 from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.traits import (
     AxisTraits,
@@ -168,19 +168,6 @@ class DriveFamily:
     pdo: ClassVar[PdoTraits] = PdoTraits()
     modes: ClassVar[ModeTraits] = ModeTraits()
     axes: ClassVar[AxisTraits] = AxisTraits()
-
-    # -- the CiA 402 profile's answers (cia402.profile.Cia402Profile), from the traits ----------
-    @property
-    def accepted_modes(self) -> frozenset[int] | None:
-        return self.modes.accepted
-
-    @property
-    def pvt_submode(self) -> int | None:
-        return self.modes.pvt_submode
-
-    @property
-    def fault_model(self) -> FaultModel:
-        return self.axes.fault_model
 
     def node(self, config: NodeConfig) -> FamilyNode:
         """The per-node part of one configured node (made once per node, at run time); plain
