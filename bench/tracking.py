@@ -150,14 +150,14 @@ def record_demand(sim: SimulatedBus, executor: TrajectoryExecutor,
     for node_id, drive in sim.drives.items():
         log: list[tuple[float, int]] = []
         records[node_id] = log
-        original = drive._model_step
+        original = drive.model_step
 
         def step(dt: float, sync: bool, drive=drive, log=log, original=original) -> None:
             original(dt, sync)
             if sync:
                 axis = drive.axes[0]
                 log.append((drive._prev_sync_stamp, axis.position if actual else axis.demand_position, executor.lag))
-        drive._model_step = step
+        drive.model_step = step
     return records
 
 

@@ -52,13 +52,14 @@ class Axis402:
 
     and a drive acknowledges its faults by other means through :meth:`acknowledge_fault`; a
     family whose error reactions are not the Fault state acts through :meth:`enter_state`,
-    :meth:`brake` and :meth:`release_brake`.
+    :meth:`brake` and :meth:`release_brake`. A family's axis reads and writes the drive's object
+    values through :attr:`values` (keys by :meth:`key`), never through a private member.
     """
 
     def __init__(self, drive: AxisDrive, slot: int, options: dict[str, Any]) -> None:
         self.drive = drive
         self.slot = slot
-        self._values = drive.store.values
+        self.values = drive.store.values  # the drive's object values (for a vendor axis too)
         self._keys: dict[tuple[int, int], int] = {}
         self.lag = float(options['lag_time_constant'])
         self.inertia = float(options['inertia'])
@@ -97,7 +98,7 @@ class Axis402:
 
     def param(self, index: int, subindex: int = 0, default: Any = None) -> Any:
         """A parameter of this axis (index given for axis 0)."""
-        value = self._values.get(self.key(index, subindex), default)
+        value = self.values.get(self.key(index, subindex), default)
         if value is None:
             raise KeyError(f'axis {self.slot}: 0x{obj.for_axis(index, self.slot):04X}:{subindex:02X} missing')
         return value
@@ -204,7 +205,7 @@ class Axis402:
             return True
         if code not in IMPLEMENTED_MODES:
             return False
-        supported = self._values.get(self.key(obj.SUPPORTED_DRIVE_MODES), self.declared_modes)
+        supported = self.values.get(self.key(obj.SUPPORTED_DRIVE_MODES), self.declared_modes)
         if supported is None:
             return True
         return bool(supported >> SUPPORT_BITS[Mode(code)] & 1)
@@ -313,7 +314,7 @@ class Axis402:
         self.halted = False
         self.control.stop = None
         self.fe_active, self.loop.fe_time, self._limited = False, 0.0, False
-        self.mode_impl = self.mode_for(self._values.get(self.key(obj.MODES_OF_OPERATION), Mode.NO_MODE))
+        self.mode_impl = self.mode_for(self.values.get(self.key(obj.MODES_OF_OPERATION), Mode.NO_MODE))
         self.ip.reset()
         self.dp, self.dv, self.dtorque = self.p, self.v, 0.0
         self._cache = None

@@ -31,7 +31,7 @@ class SimDrive402(SimulatedSlave):
 
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
         super().__init__(node, options=options)
-        count = self._axis_count(node)
+        count = self.axis_count(node)
         self.axes: tuple[Axis402, ...] = tuple(
             self.AXIS_CLASS(self, slot, {name: self.options[name][slot]
                                          for name, spec in self.OPTIONS.items() if spec.per_axis})
@@ -42,7 +42,8 @@ class SimDrive402(SimulatedSlave):
         """Hook: the axes exist (e.g. settle what the EDS leaves open). Default: nothing."""
 
     @staticmethod
-    def _axis_count(node: NodeConfig) -> int:
+    def axis_count(node: NodeConfig) -> int:
+        """The axes the EDS has a controlword 0x6040 (+ 0x800 per slot) for."""
         count = 0
         while count < obj.MAX_AXES and obj.for_axis(obj.CONTROLWORD, count) in node.od:
             count += 1
@@ -65,7 +66,7 @@ class SimDrive402(SimulatedSlave):
         for axis in self.axes:
             axis.boot()
 
-    def _model_step(self, dt: float, sync: bool) -> None:
+    def model_step(self, dt: float, sync: bool) -> None:
         for axis in self.axes:
             axis.advance(dt, sync)
         if sync:  # new set-points start at this SYNC, after the step that ended at it

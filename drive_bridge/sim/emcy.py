@@ -53,12 +53,17 @@ def emcy_payload(code: int, register: int, manufacturer: bytes = b'') -> bytes:
 
 
 class EmcyProducer:
-    """Active errors per source, error register, history and the EMCY frames."""
+    """Active errors per source, error register, history and the EMCY frames.
+
+    A vendor simulator's producer extends it through ``store``, ``active_errors`` (the active
+    errors: (source, code) -> register bits), :meth:`push_history` (a hook: how an error enters
+    0x1003) and :meth:`emit` (one EMCY frame); the rest is private.
+    """
 
     def __init__(self, store: ObjectStore, send: Callable[[int, bytes], None]) -> None:
-        self._store = store
+        self.store = store
         self._send = send
-        self._active: dict[tuple[str, int], int] = {}  # (source, code) -> register bits
+        self.active_errors: dict[tuple[str, int], int] = {}  # (source, code) -> register bits
         subs = sorted(s for k in store.keys_between(ERROR_HISTORY, ERROR_HISTORY)
                       if (s := k & 0xFF) > 0)
         self.history_size = len(subs)
@@ -67,16 +72,16 @@ class EmcyProducer:
     @property
     def register(self) -> int:
         bits = 0
-        for value in self._active.values():
+        for value in self.active_errors.values():
             bits |= value
         return bits
 
     @property
     def active_codes(self) -> list[int]:
-        return [code for (_source, code) in self._active]
+        return [code for (_source, code) in self.active_errors]
 
     def is_active(self, source: str | None = None) -> bool:
-        return any(source is None or s == source for (s, _c) in self._active)
+        return any(source is None or s == source for (s, _c) in self.active_errors)
 
     def error(self, code: int, source: str = 'device', manufacturer: bytes = b'',
               transient: bool = False, emit: bool = True) -> None:
@@ -86,11 +91,11 @@ class EmcyProducer:
         signalled (e.g. each axis' fault after one heartbeat-loss EMCY).
         """
         if not transient:
-            self._active[(source, code)] = self.register_bits(code)
+            self.active_errors[(source, code)] = self.register_bits(code)
         if not emit:
             return
-        self._push_history(code)
-        self._emit(code, self.register | (0 if not transient else self.register_bits(code)), manufacturer)
+        self.push_history(code)
+        self.emit(code, self.register | (0 if not transient else self.register_bits(code)), manufacturer)
 
     def register_bits(self, code: int) -> int:
         """Hook: the error register bits an error ``code`` sets (default: CiA 301's, generic bit
@@ -99,31 +104,33 @@ class EmcyProducer:
 
     def clear(self, source: str | None = None) -> None:
         """Forget the errors of ``source`` (all if None); EMCY 0x0000 once none is left."""
-        before = len(self._active)
-        self._active = {k: v for k, v in self._active.items() if source is not None and k[0] != source}
-        if before and not self._active:
-            self._emit(0x0000, 0, b'')
+        before = len(self.active_errors)
+        self.active_errors = {k: v for k, v in self.active_errors.items() if source is not None and k[0] != source}
+        if before and not self.active_errors:
+            self.emit(0x0000, 0, b'')
 
     def reset(self) -> None:
         """Power-on / reset: no active errors, no frame."""
-        self._active.clear()
+        self.active_errors.clear()
 
     def clear_history(self) -> None:
         for sub in range(1, self.history_size + 1):
-            self._store.values[key(ERROR_HISTORY, sub)] = 0
-        self._store.values[key(ERROR_HISTORY, 0)] = 0
+            self.store.values[key(ERROR_HISTORY, sub)] = 0
+        self.store.values[key(ERROR_HISTORY, 0)] = 0
 
-    def _push_history(self, code: int) -> None:
+    def push_history(self, code: int) -> None:
+        """Hook: add ``code`` to the error history 0x1003 (newest at sub 1)."""
         if not self.history_size:
             return
-        values = self._store.values
+        values = self.store.values
         for sub in range(self.history_size, 1, -1):
             values[key(ERROR_HISTORY, sub)] = values[key(ERROR_HISTORY, sub - 1)]
         values[key(ERROR_HISTORY, 1)] = code & 0xFFFF
         values[key(ERROR_HISTORY, 0)] = min(self.history_size, values[key(ERROR_HISTORY, 0)] + 1)
 
-    def _emit(self, code: int, register: int, manufacturer: bytes) -> None:
-        cob = self._store.values.get(key(COB_ID_EMCY, 0), 0)
+    def emit(self, code: int, register: int, manufacturer: bytes) -> None:
+        """Send one EMCY frame (unless 0x1014 marks the COB-ID invalid); kept in ``sent``."""
+        cob = self.store.values.get(key(COB_ID_EMCY, 0), 0)
         if len(self.sent) < 1000:
             self.sent.append((code, register, bytes(manufacturer[:5])))
         if cob & COB_ID_INVALID:

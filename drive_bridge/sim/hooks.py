@@ -74,7 +74,7 @@ class SlaveHooks:
     def on_boot(self) -> None:
         """Hook: boot-up sent, PRE-OPERATIONAL entered."""
 
-    def _model_step(self, dt: float, sync: bool) -> None:
+    def model_step(self, dt: float, sync: bool) -> None:
         """Hook: advance the device model by ``dt`` s; ``sync`` when triggered by a SYNC frame."""
 
     def supervise(self, now: float) -> bool:

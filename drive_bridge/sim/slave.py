@@ -78,7 +78,7 @@ class SimulatedSlave(CommFaultInjection, SlaveHooks):
     - :meth:`reset_application` -- power-on / reset node: the application starts again;
     - :meth:`on_reset_communication` -- power-on / reset node / reset communication;
     - :meth:`on_boot` -- boot-up sent, PRE-OPERATIONAL entered;
-    - ``_model_step(dt, sync)`` -- advance the device model (wrapped by bench/tracking.py);
+    - ``model_step(dt, sync)`` -- advance the device model (wrapped by bench/tracking.py);
     - :meth:`supervise` -- the device's own periodic checks;
     - :meth:`on_heartbeat_lost` / :meth:`on_heartbeat_recovered` -- heartbeat consumer events;
     - :meth:`on_life_guarding_lost` / :meth:`on_life_guarding_recovered` -- life guarding events;
@@ -89,7 +89,7 @@ class SimulatedSlave(CommFaultInjection, SlaveHooks):
       (e.g. segmented or block transfers of a device with expedited transfer only).
 
     and acts by itself through :meth:`set_nmt_state`, :meth:`restart` and
-    :meth:`reload_communication_objects`.
+    :meth:`reload_communication_objects`, on the slave's :attr:`timers` and :attr:`lock`.
     """
 
     OPTIONS: dict[str, OptionSpec] = SLAVE_OPTIONS
@@ -101,7 +101,7 @@ class SimulatedSlave(CommFaultInjection, SlaveHooks):
         self.node = node
         self.node_id = node.node_id
         self.name = node.name
-        self.options = resolve_options(self.OPTIONS, options, node.name, axes=self._axis_count(node))
+        self.options = resolve_options(self.OPTIONS, options, node.name, axes=self.axis_count(node))
         self._lock = threading.RLock()
         self.store = ObjectStore(node.od)
         if key(IDENTITY, 4) in self.store:
@@ -147,7 +147,8 @@ class SimulatedSlave(CommFaultInjection, SlaveHooks):
                 self.store.set_default(IDENTITY, sub, int(value))
 
     @staticmethod
-    def _axis_count(node: NodeConfig) -> int:
+    def axis_count(node: NodeConfig) -> int:
+        """Hook: the axes ``node`` has (sizes the per-axis options); a CiA 301 node has one."""
         return 1
 
     # ---- inspection ------------------------------------------------------------------
@@ -159,6 +160,11 @@ class SimulatedSlave(CommFaultInjection, SlaveHooks):
     @property
     def powered(self) -> bool:
         return self.nmt.powered
+
+    @property
+    def timers(self) -> TimerThread:
+        """The slave's timer thread: a vendor simulator schedules its own delays on it."""
+        return self._timers
 
     @property
     def lock(self) -> threading.RLock:

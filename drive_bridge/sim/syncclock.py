@@ -87,7 +87,7 @@ class SyncClock:
             if operational:
                 pdo.apply_latched()
             pdo.open_window(timestamp)
-            node._model_step(min(max(dt, 0.0), MAX_STEP), True)
+            node.model_step(min(max(dt, 0.0), MAX_STEP), True)
             if operational:
                 pdo.transmit_on_sync(data[0] if len(data) else None)
                 pdo.poll_events()
@@ -115,7 +115,7 @@ class SyncClock:
                 self._monitor.check(now)
             if now - self.last_sync >= self.silence():
                 dt, self.last_advance = now - self.last_advance, now
-                node._model_step(min(max(dt, 0.0), MAX_STEP), False)
+                node.model_step(min(max(dt, 0.0), MAX_STEP), False)
                 node.pdo.poll_events()
             if booted:
                 changed = self._guarding.check(now)

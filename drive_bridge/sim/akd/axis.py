@@ -114,11 +114,11 @@ class AkdAxis(Axis402):
 
     @property
     def pvt(self) -> bool:
-        return self._values.get(self.key(obj.INTERPOLATION_SUB_MODE), LINEAR) == PVT
+        return self.values.get(self.key(obj.INTERPOLATION_SUB_MODE), LINEAR) == PVT
 
     def pvt_velocity(self, velocity: int) -> float:
-        numerator = self._values.get(key(PV_SCALING, 1), 1)
-        denominator = self._values.get(key(PV_SCALING, 2), 1) or 1
+        numerator = self.values.get(key(PV_SCALING, 1), 1)
+        denominator = self.values.get(key(PV_SCALING, 2), 1) or 1
         return float(velocity) * numerator / denominator
 
     # -- interpolation objects ------------------------------------------------------------------
@@ -135,7 +135,7 @@ class AkdAxis(Axis402):
             raise SdoAbortedError(ABORT_INVALID_VALUE)  # linear interpolation: one sub-index per record
 
     def _on_record(self, sub: int) -> None:
-        values, k = self._values, self.key
+        values, k = self.values, self.key
         record = obj.INTERPOLATION_DATA_RECORD
         if not self.pvt:
             if sub == 1:
@@ -187,8 +187,8 @@ class AkdAxis(Axis402):
     def _check_period(self, sub: int, value: int) -> None:
         if self._period_written | {sub} != {1, 2}:
             return
-        units = value if sub == 1 else self._values[self.key(obj.INTERPOLATION_TIME_PERIOD, 1)]
-        index = value if sub == 2 else self._values[self.key(obj.INTERPOLATION_TIME_PERIOD, 2)]
+        units = value if sub == 1 else self.values[self.key(obj.INTERPOLATION_TIME_PERIOD, 1)]
+        index = value if sub == 2 else self.values[self.key(obj.INTERPOLATION_TIME_PERIOD, 2)]
         period_ms = units * 10.0 ** (index + 3)
         if period_ms < 1.0 - 1e-9 or abs(period_ms - round(period_ms)) > 1e-6:
             self._period_written.clear()
@@ -202,8 +202,8 @@ class AkdAxis(Axis402):
             self.invalidate_parameters()
 
     def _committed_period(self) -> float:
-        units = self._values.get(self.key(obj.INTERPOLATION_TIME_PERIOD, 1), 1)
-        index = self._values.get(self.key(obj.INTERPOLATION_TIME_PERIOD, 2), -3)
+        units = self.values.get(self.key(obj.INTERPOLATION_TIME_PERIOD, 1), 1)
+        index = self.values.get(self.key(obj.INTERPOLATION_TIME_PERIOD, 2), -3)
         return units * 10.0 ** index if units else 0.001
 
     @staticmethod
@@ -250,8 +250,8 @@ class AkdAxis(Axis402):
             self._cancel_interpolation()
         if new is State.QUICK_STOP_ACTIVE:  # "setpoints are cancelled" (digital set-points)
             for index in (obj.TARGET_VELOCITY, obj.TARGET_TORQUE):
-                if self.key(index) in self._values:
-                    self._values[self.key(index)] = 0
+                if self.key(index) in self.values:
+                    self.values[self.key(index)] = 0
 
     def compute_statusword(self) -> int:
         sw = super().compute_statusword() & ~SW_WARNING
@@ -264,8 +264,8 @@ class AkdAxis(Axis402):
     # -- life cycle -----------------------------------------------------------------------------------
     def load_boot_values(self) -> None:
         """What the drive reads at power-on / reset node: software limits and the IP period."""
-        low = self._values.get(self.key(obj.SOFTWARE_POSITION_LIMIT, 1), 0)
-        high = self._values.get(self.key(obj.SOFTWARE_POSITION_LIMIT, 2), 0)
+        low = self.values.get(self.key(obj.SOFTWARE_POSITION_LIMIT, 1), 0)
+        high = self.values.get(self.key(obj.SOFTWARE_POSITION_LIMIT, 2), 0)
         self._boot_limits = (float(low), float(high)) if low < high else None
         self._period = self._committed_period()
         self._period_written.clear()

@@ -16,5 +16,5 @@ class AkdEmcy(EmcyProducer):
 
     def warning(self, code: int) -> None:
         """A warning's EMCY: the error register as it is (faults only), category 1."""
-        self._push_history(code)
-        self._emit(code, self.register, CATEGORY)
+        self.push_history(code)
+        self.emit(code, self.register, CATEGORY)

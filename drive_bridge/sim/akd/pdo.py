@@ -27,7 +27,7 @@ class AkdPdoEngine(PdoEngine):
         self.pdo_readers: dict[int, Callable[[], Any]] = {}  # values a TPDO sends differently from SDO
 
     def validate(self, index: int, subindex: int, value: int) -> None:
-        pdo = self._by_index[index]
+        pdo = self.by_index[index]
         if index == pdo.mapping and self.operational():
             raise SdoAbortedError(ABORT_STATE)
         if index == pdo.comm and subindex == 2 and not (value <= 240 or value == 255):
@@ -44,8 +44,8 @@ class AkdPdoEngine(PdoEngine):
     def due_rpdos(self) -> list[Pdo]:
         """Synchronous RPDOs due at this SYNC (type n: every n-th), in COB-ID order."""
         due = []
-        for cob in sorted(self._rx_by_cob):
-            pdo = self._rx_by_cob[cob]
+        for cob in sorted(self.rx_by_cob):
+            pdo = self.rx_by_cob[cob]
             if not pdo.synchronous:
                 continue
             pdo.sync_count += 1

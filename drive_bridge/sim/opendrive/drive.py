@@ -336,7 +336,7 @@ class SimOpenDrive(SimulatedSlave):
         """rad/s, from the selected reference object (0 without C52 = 1)."""
         return speed_reference(self.store.values, self.options, self.tab_con[C52] == 1, self._n_max)
 
-    def _model_step(self, dt: float, sync: bool) -> None:
+    def model_step(self, dt: float, sync: bool) -> None:
         torque_ref, limit = torque_reference(self.store.values, self.options, self.tab_con[C52] == 1)
         self.motor.step(dt, self._running(), self.options['control_mode'] == 'torque', self._speed_reference(),
                         torque_ref, limit)

@@ -34,9 +34,9 @@ class OpenDriveEmcy(EmcyProducer):
         """One EMCY with ``code`` and the alarm word; ``history``: also a 0x1003 entry."""
         alarms &= 0xFFFF
         if history and self.history_size:
-            values = self._store.values
+            values = self.store.values
             for sub in range(self.history_size, 1, -1):
                 values[key(ERROR_HISTORY, sub)] = values[key(ERROR_HISTORY, sub - 1)]
             values[key(ERROR_HISTORY, 1)] = alarms << 16 | code & 0xFFFF
             values[key(ERROR_HISTORY, 0)] = min(self.history_size, values[key(ERROR_HISTORY, 0)] + 1)
-        self._emit(code, register_of(alarms), alarms.to_bytes(2, 'little'))
+        self.emit(code, register_of(alarms), alarms.to_bytes(2, 'little'))

@@ -30,7 +30,7 @@ class OpenDrivePdoEngine(PdoEngine):
         self.sampled: dict[int, bytes] = {}  # TPDO number -> data sampled at the last SYNC (type 252)
 
     def validate(self, index: int, subindex: int, value: int) -> None:
-        pdo = self._by_index[index]
+        pdo = self.by_index[index]
         if index == pdo.comm and subindex == 2:
             reserved = 241 <= value <= 251 if pdo.transmit else 241 <= value <= 253 or value == 255
             if reserved:
@@ -50,35 +50,35 @@ class OpenDrivePdoEngine(PdoEngine):
         return super().has_changed(pdo, data)
 
     def written(self, index: int) -> None:
-        pdo = self._by_index[index]
+        pdo = self.by_index[index]
         self.sampled.pop(pdo.number if pdo.transmit else -1, None)
         super().written(index)
 
     def transmit_on_sync(self, counter: int | None) -> None:
         super().transmit_on_sync(counter)
-        if self._tpdo_allowed():
+        if self.tpdo_allowed():
             for pdo in self.tpdos.values():
                 if pdo.valid and pdo.trans_type == RTR_SAMPLED:
-                    self.sampled[pdo.number] = self._pack(pdo)
+                    self.sampled[pdo.number] = self.packed(pdo)
 
     def remote_cob_ids(self) -> set[int]:
         """COB-IDs of the valid TPDOs that are sent on RTR (252/253, RTR allowed)."""
-        values = self._store.values
+        values = self.store.values
         return {pdo.cob_id for pdo in self.tpdos.values()
                 if pdo.valid and pdo.trans_type in (RTR_SAMPLED, RTR_NOW)
                 and not values[key(pdo.comm, 1)] & COB_NO_RTR}
 
     def on_remote_request(self, cob_id: int) -> None:
         """An RTR on ``cob_id`` (lock held): the RTR-only TPDOs on it answer."""
-        if not self._tpdo_allowed():
+        if not self.tpdo_allowed():
             return
         for pdo in self.tpdos.values():
             if not pdo.valid or pdo.cob_id != cob_id or cob_id not in self.remote_cob_ids():
                 continue
             if pdo.trans_type == RTR_NOW:
-                self._emit(pdo, self._pack(pdo), time.monotonic())
+                self.emit(pdo, self.packed(pdo), time.monotonic())
             elif pdo.trans_type == RTR_SAMPLED and pdo.number in self.sampled:
-                self._emit(pdo, self.sampled.pop(pdo.number), time.monotonic())
+                self.emit(pdo, self.sampled.pop(pdo.number), time.monotonic())
 
     def leave_operational(self) -> None:
         super().leave_operational()

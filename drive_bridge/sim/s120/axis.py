@@ -284,7 +284,7 @@ class S120Axis(Axis402):
     def reset(self) -> None:
         self._pending_mode = None
         super().reset()
-        requested = self._values.get(self.key(obj.MODES_OF_OPERATION), self.boot_mode)
+        requested = self.values.get(self.key(obj.MODES_OF_OPERATION), self.boot_mode)
         self.mode_impl = self.mode_for(requested if self.supports(requested) else self.boot_mode)
 
     def load_boot_values(self) -> None:
@@ -303,4 +303,4 @@ class S120Axis(Axis402):
 
     @property
     def requested_mode(self) -> int:
-        return int(self._values.get(self.key(obj.MODES_OF_OPERATION), 0))
+        return int(self.values.get(self.key(obj.MODES_OF_OPERATION), 0))

@@ -58,7 +58,7 @@ class SimS120(SimDrive402):
 
     def __init__(self, node: NodeConfig, *, options: Mapping[str, Any] | None = None) -> None:
         given = dict(options or {})
-        self._dos = drive_object_count(node.name, given.get('drive_objects', 0), SimDrive402._axis_count(node))
+        self._dos = drive_object_count(node.name, given.get('drive_objects', 0), SimDrive402.axis_count(node))
         self._kept: list[Message] = []
         self._load_saved = False
         self.window = ParameterWindow(self)
@@ -94,7 +94,7 @@ class SimS120(SimDrive402):
         self.active.write_history()
 
     # -- construction ------------------------------------------------------------------------------------
-    def _axis_count(self, node: NodeConfig) -> int:  # type: ignore[override]  # needs the option
+    def axis_count(self, node: NodeConfig) -> int:  # type: ignore[override]  # needs the option
         return self._dos
 
     def _register_s120_objects(self) -> None:
@@ -151,7 +151,7 @@ class SimS120(SimDrive402):
 
     def schedule_reboot(self) -> None:
         """p0009 went back to 0: the CU reboots by itself after ``reboot_delay`` s [2.10]."""
-        self._timers.call_later(self.options['reboot_delay'], self._reboot)
+        self.timers.call_later(self.options['reboot_delay'], self._reboot)
 
     def _reboot(self) -> None:
         with self.lock:

@@ -120,19 +120,19 @@ class S120Emcy(EmcyProducer):
     def clear(self, source: str | None = None) -> None:
         if source is not None and source.startswith('axis'):
             return
-        before = bool(self._active)
-        self._active = {k: v for k, v in self._active.items() if source is not None and k[0] != source}
-        if before and not self._active and not self.register:
+        before = bool(self.active_errors)
+        self.active_errors = {k: v for k, v in self.active_errors.items() if source is not None and k[0] != source}
+        if before and not self.active_errors and not self.register:
             self.all_clear()
 
-    def _push_history(self, code: int) -> None:
+    def push_history(self, code: int) -> None:
         """0x1003 is built from the messages, per module (:func:`write_history`)."""
 
     def signal(self, message: Message) -> None:
-        self._emit(message.code, self.register, message.manufacturer)
+        self.emit(message.code, self.register, message.manufacturer)
 
     def all_clear(self) -> None:
-        self._emit(0x0000, 0, b'')
+        self.emit(0x0000, 0, b'')
 
 
 def write_history(store: ObjectStore, messages: Sequence[Message], modules: Sequence[int]) -> None:

@@ -72,8 +72,8 @@ class S120PdoEngine(PdoEngine):
         read-write (the CiA 301 procedure, the EDS) or read-only (``sub0_read_only``). The
         length of the mapping is checked when the PDO is made valid."""
         self._follow = None
-        pdo = self._by_index[index]
-        values = self._store.values
+        pdo = self.by_index[index]
+        values = self.store.values
         if index == pdo.comm:
             cob = values[key(pdo.comm, 1)]
             if subindex == 1 and cob & COB_INVALID and not value & COB_INVALID:
@@ -95,23 +95,23 @@ class S120PdoEngine(PdoEngine):
         self._follow = index if self.sub0_read_only or values[key(index, 0)] != 0 else None
 
     def written(self, index: int) -> None:
-        pdo = self._by_index[index]
+        pdo = self.by_index[index]
         if index == pdo.mapping and self._follow == index:
-            self._store.values[key(pdo.mapping, 0)] = len(self._entries(pdo))
+            self.store.values[key(pdo.mapping, 0)] = len(self._entries(pdo))
         self._follow = None
         super().written(index)
 
     def _mapped(self, pdo: Pdo) -> list[int]:
         """The entries sub 0 counts."""
-        values = self._store.values
+        values = self.store.values
         return [values[key(pdo.mapping, sub)] for sub in range(1, values[key(pdo.mapping, 0)] + 1)]
 
     def _entries(self, pdo: Pdo) -> list[int]:
         """The leading non-zero mapping entries."""
         entries = []
         sub = 1
-        while key(pdo.mapping, sub) in self._store:
-            entry = self._store.values[key(pdo.mapping, sub)]
+        while key(pdo.mapping, sub) in self.store:
+            entry = self.store.values[key(pdo.mapping, sub)]
             if not entry:
                 break
             entries.append(entry)
@@ -120,8 +120,8 @@ class S120PdoEngine(PdoEngine):
 
     # -- telegram monitoring --------------------------------------------------------------------------
     def on_rpdo(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        with self._lock:
-            pdo = self._rx_by_cob.get(can_id)
-            if pdo is not None and self._rpdo_allowed() and len(data) >= pdo.struct.size:
+        with self.lock:
+            pdo = self.rx_by_cob.get(can_id)
+            if pdo is not None and self.rpdo_allowed() and len(data) >= pdo.struct.size:
                 self.on_received(pdo, timestamp)
             super().on_rpdo(can_id, data, timestamp)

@@ -135,7 +135,7 @@ class ServostarAxis(Axis402):
                 speed = self.param(obj.HOMING_SPEEDS, 1, 0) or self.units.vlim()
                 return self.units.ramp(super().param(index, 0, 0) or 10, speed)
             if index == POSITION_WINDOW:
-                return self.units.user_to_counts(self._values.get(key(POSITION_CONTROLLER, 2), 0x4000))
+                return self.units.user_to_counts(self.values.get(key(POSITION_CONTROLLER, 2), 0x4000))
             if index == VELOCITY_WINDOW:
                 return SPEED_ZERO
             if index in (POSITION_WINDOW_TIME, VELOCITY_WINDOW_TIME):
@@ -179,10 +179,10 @@ class ServostarAxis(Axis402):
         self.star.check_disabled()  # "Disabled Reset"
 
     def _check_period(self, sub: int, value: int) -> None:
-        check_interpolation_period(self._values, sub, value)
+        check_interpolation_period(self.values, sub, value)
 
     def _on_period(self, sub: int) -> None:
-        self._values[key(PTBASE, VALUE)] = ptbase_of_period(self._values)
+        self.values[key(PTBASE, VALUE)] = ptbase_of_period(self.values)
 
     # -- trajectory and motion-task objects -------------------------------------------------------------
     def _on_trajectory_setpoint(self, value: int) -> None:
@@ -194,7 +194,7 @@ class ServostarAxis(Axis402):
         if not self._fresh_setpoint:
             return None if self.star.options['trajectory_setpoints'] == 'relative' else self.trajectory_target
         self._fresh_setpoint = False
-        value = self._values[key(MOTION_TASK, 4)] / self.units.prbase_scale()
+        value = self.values[key(MOTION_TASK, 4)] / self.units.prbase_scale()
         if self.star.options['trajectory_setpoints'] == 'relative':
             self.trajectory_target += value
         else:
@@ -228,7 +228,7 @@ class ServostarAxis(Axis402):
     def digital_setpoint(self) -> int:
         if self.star.options['digital_setpoint'] == 'enable':
             return self._latched_setpoint
-        return int(self._values.get(key(SETPOINT), 0))
+        return int(self.values.get(key(SETPOINT), 0))
 
     # -- modes ----------------------------------------------------------------------------------------------
     def supports(self, code: int) -> bool:
@@ -252,8 +252,8 @@ class ServostarAxis(Axis402):
             return
         self._pending_mode = None
         for index in (SETPOINT, obj.TARGET_VELOCITY):  # "the setpoint of the new mode must be set again"
-            if key(index) in self._values:
-                self._values[key(index)] = 0
+            if key(index) in self.values:
+                self.values[key(index)] = 0
         self._latched_setpoint = 0
         self.task_active = False
         self.switch_mode(code)
@@ -287,7 +287,7 @@ class ServostarAxis(Axis402):
             return
         super().on_controlword(cw)
         if self.state is State.OPERATION_ENABLED and low == 0x0F:
-            self._latched_setpoint = int(self._values.get(key(SETPOINT), 0))  # "renewed Enable Operation"
+            self._latched_setpoint = int(self.values.get(key(SETPOINT), 0))  # "renewed Enable Operation"
 
     def on_transition(self, old: State, new: State) -> None:
         if new is State.QUICK_STOP_ACTIVE and old is not new:
@@ -300,8 +300,8 @@ class ServostarAxis(Axis402):
     def _clear_setpoints(self) -> None:
         """Quick stop clears the setpoints: task number, digital setpoint, jog and homing speed [4.3]."""
         for index, sub in ((SETPOINT, 0), (obj.TARGET_VELOCITY, 0), (MOTION_TASK, 5), (0x2024, 3), (0x2024, 7)):
-            if key(index, sub) in self._values:
-                self._values[key(index, sub)] = 0
+            if key(index, sub) in self.values:
+                self.values[key(index, sub)] = 0
         self._latched_setpoint = 0
         self.task_active = False
 
@@ -327,11 +327,11 @@ class ServostarAxis(Axis402):
 
     # -- statusword and status registers (status.py) -----------------------------------------------------
     def compute_statusword(self) -> int:
-        return statusword(self, super().compute_statusword(), self._values)
+        return statusword(self, super().compute_statusword(), self.values)
 
     def status_register(self) -> int:
         """0x1002 (DRVSTAT)."""
-        return status_register(self, self._values)
+        return status_register(self, self.values)
 
     def extended_status(self) -> int:
         """0x2070:11 for TPDO 33: digital inputs in bits 0..3 (input 1 = hardware enable), bits
@@ -341,8 +341,8 @@ class ServostarAxis(Axis402):
     # -- life cycle ------------------------------------------------------------------------------------
     def load_boot_values(self) -> None:
         """PTBASE and PRBASE take effect at power-on / restart only [5.1]."""
-        self.period = max(1, int(self._values.get(key(PTBASE, VALUE), 4))) * SAMPLE
-        self.units.prbase = int(self._values.get(key(PRBASE, VALUE), 20))
+        self.period = max(1, int(self.values.get(key(PTBASE, VALUE), 4))) * SAMPLE
+        self.units.prbase = int(self.values.get(key(PRBASE, VALUE), 20))
         self.invalidate_parameters()
 
     def reset(self) -> None:
@@ -353,7 +353,7 @@ class ServostarAxis(Axis402):
         self.warnings = 0
         self._mismatch_run = 0
         super().reset()
-        saved = self._values.get(key(OPMODE, VALUE), 8)
+        saved = self.values.get(key(OPMODE, VALUE), 8)
         self.mode_impl = self.mode_for(POWER_ON_MODES.get(saved, SPEED_DIGITAL))
 
     def advance(self, dt: float, sync: bool) -> None:
@@ -391,7 +391,7 @@ class ServostarAxis(Axis402):
         return self.dp - self.p
 
     def _check_pemax(self) -> None:
-        limit = self._values.get(key(POSITION_CONTROLLER, 3), 0)
+        limit = self.values.get(key(POSITION_CONTROLLER, 3), 0)
         error = self.units.counts_to_user(self.following_error_counts())
         if limit > 0 and not math.isnan(self.p) and abs(error) > limit:
             self.star.following_error(self)

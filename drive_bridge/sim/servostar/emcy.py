@@ -75,16 +75,16 @@ class ServostarEmcy(EmcyProducer):
         category = manufacturer[:1] or bytes([category_of(code, source)])
         super().error(code, source, category, transient, emit)
         if emit:  # the error state after every EMCY
-            self._emit(0x0000, self.register, category if self.follow_up_category else b'')
+            self.emit(0x0000, self.register, category if self.follow_up_category else b'')
 
     def clear(self, source: str | None = None, keep: frozenset[int] = frozenset()) -> None:
         """Forget the errors of ``source`` (all if None) but the codes in ``keep``; EMCY 0x0000
         with the remaining error register if any went."""
-        before = len(self._active)
-        self._active = {k: v for k, v in self._active.items()
+        before = len(self.active_errors)
+        self.active_errors = {k: v for k, v in self.active_errors.items()
                         if (source is not None and k[0] != source) or k[1] in keep}
-        if len(self._active) != before:
-            self._emit(0x0000, self.register, b'')
+        if len(self.active_errors) != before:
+            self.emit(0x0000, self.register, b'')
 
     def codes(self, source: str) -> list[int]:
-        return [code for (s, code) in self._active if s == source]
+        return [code for (s, code) in self.active_errors if s == source]

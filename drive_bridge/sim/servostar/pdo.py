@@ -55,7 +55,7 @@ class ServostarPdoEngine(PdoEngine):
     # -- selection -------------------------------------------------------------------------------------
     def selection(self, pdo: Pdo) -> int:
         """The library number selected in ``pdo``'s channel (0: none)."""
-        return self._store.values.get(key((TPDO_SELECT if pdo.transmit else RPDO_SELECT) + pdo.number - 1), 0)
+        return self.store.values.get(key((TPDO_SELECT if pdo.transmit else RPDO_SELECT) + pdo.number - 1), 0)
 
     def channel(self, transmit: bool, number: int) -> Pdo:
         return (self.tpdos if transmit else self.rpdos)[number]
@@ -74,7 +74,7 @@ class ServostarPdoEngine(PdoEngine):
         pdo = self.channel(transmit, number)
         previous = self._selected.get((transmit, number))
         self._selected[(transmit, number)] = value
-        values = self._store.values
+        values = self.store.values
         if value in FREE_PDOS:
             if previous != value:
                 self._set_mapping(pdo, ())
@@ -91,7 +91,7 @@ class ServostarPdoEngine(PdoEngine):
         self.written(pdo.mapping)
 
     def _set_mapping(self, pdo: Pdo, entries: tuple[int, ...]) -> None:
-        values = self._store.values
+        values = self.store.values
         for sub in range(1, MAX_ENTRIES + 1):
             if key(pdo.mapping, sub) in values:
                 values[key(pdo.mapping, sub)] = entries[sub - 1] if sub <= len(entries) else 0
@@ -104,7 +104,7 @@ class ServostarPdoEngine(PdoEngine):
 
     # -- parameter writes -------------------------------------------------------------------------------
     def validate(self, index: int, subindex: int, value: int) -> None:
-        pdo = self._by_index[index]
+        pdo = self.by_index[index]
         number = self.selection(pdo)
         if index == pdo.mapping:
             if number not in FREE_PDOS:
@@ -128,7 +128,7 @@ class ServostarPdoEngine(PdoEngine):
             raise SdoAbortedError(ABORT_INVALID_VALUE)
 
     def _check_free_mapping(self, pdo: Pdo, subindex: int, value: int) -> None:
-        values = self._store.values
+        values = self.store.values
         count = values[key(pdo.mapping, 0)]
         if subindex == 0:
             if value > MAX_ENTRIES:
@@ -156,9 +156,9 @@ class ServostarPdoEngine(PdoEngine):
         """The drive keeps sub 0 of a free PDO's mapping itself: writing 0 deletes the PDO's data,
         every entry written counts (the manual never writes the count back)."""
         write, self._mapping_write = self._mapping_write, None
-        pdo = self._by_index[index]
+        pdo = self.by_index[index]
         if write is not None and write[0] == pdo.mapping:
-            values = self._store.values
+            values = self.store.values
             _, subindex, value = write
             if subindex == 0 and value == 0:
                 self._set_mapping(pdo, ())
@@ -171,14 +171,14 @@ class ServostarPdoEngine(PdoEngine):
 
     # -- receive ------------------------------------------------------------------------------------------
     def accepted_rpdos(self, valid: list[Pdo]) -> list[Pdo]:
-        if self._store.values.get(key(MDRV, VALUE), 0):
+        if self.store.values.get(key(MDRV, VALUE), 0):
             return [pdo for pdo in valid if pdo.number <= 3]  # multidrive mode: three channels [1.3]
         return valid
 
     def on_rpdo(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        with self._lock:
-            pdo = self._rx_by_cob.get(can_id)
-            if pdo is None or not self._rpdo_allowed():
+        with self.lock:
+            pdo = self.rx_by_cob.get(can_id)
+            if pdo is None or not self.rpdo_allowed():
                 return
             number = self.selection(pdo)
             if number == ASCII_PDO:
@@ -195,14 +195,14 @@ class ServostarPdoEngine(PdoEngine):
 
     def apply_latched(self) -> None:
         """At SYNC: RPDO 33 gives this drive one setpoint, its half of the frame (0x2721)."""
-        for pdo in self._rx_by_cob.values():
+        for pdo in self.rx_by_cob.values():
             if pdo.latched is not None and self.selection(pdo) == TRAJECTORY_PDO:
                 data, pdo.latched = pdo.latched, None
                 offset = self.trajectory_offset()
                 value = int.from_bytes(data[offset:offset + 4].ljust(4, b'\0'), 'little', signed=True)
                 self.applying = TRAJECTORY_PDO
                 try:
-                    self._write_many([(TRAJECTORY_SETPOINT, value)])
+                    self.write_many([(TRAJECTORY_SETPOINT, value)])
                 finally:
                     self.applying = None
         super().apply_latched()
@@ -211,7 +211,7 @@ class ServostarPdoEngine(PdoEngine):
     def send_ascii(self, text: bytes) -> int:
         """The ASCII terminal's output on every valid TPDO channel carrying PDO 21, 8 characters a
         frame, the last one padded with NUL; the number of frames sent."""
-        if not text or not self._tpdo_allowed():
+        if not text or not self.tpdo_allowed():
             return 0
         sent = 0
         for pdo in self.tpdos.values():
@@ -219,7 +219,7 @@ class ServostarPdoEngine(PdoEngine):
                 for start in range(0, len(text), 8):
                     chunk = text[start:start + 8].ljust(8, b'\0')
                     pdo.last_data, pdo.last_time = chunk, time.monotonic()
-                    self._send(pdo.cob_id, chunk)
+                    self.send(pdo.cob_id, chunk)
                     self.tpdo_sent += 1
                     sent += 1
         return sent
