@@ -181,7 +181,7 @@ class Session:
         return received
 
     def send_goal(self, name: str, type_name: str, values: Any) -> Any:
-        from rclpy.action import ActionClient
+        from rostools import ActionClient
         action = interface_type(type_name)
         goal = action.Goal()
         set_fields(goal, values)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from rclpy.action import ActionClient as RclpyActionClient
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -18,6 +19,35 @@ from rclpy.node import Node
 from waittools import wait_for
 
 __all__ = ['RosHarness', 'ros_harness', 'wait_for']
+
+
+class ActionClient(RclpyActionClient):  # type: ignore[misc]
+    """rclpy's action client without its race (rclpy 7.1.5 from PyPI; ros2/rclpy#1123, fixed
+    upstream by #1308 and its Jazzy backport #1519): a request is sent, then its sequence number
+    registered, while the harness's executor thread may already take the answer; that answer is
+    "unexpected", logged as "there may be more than one action server", and the goal's future
+    never completes (a CI run: "timed out waiting for goal response", the bridge had accepted
+    it). Sending and registering hold one lock, and so does taking the answers."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._request_lock = threading.RLock()
+
+    def send_goal_async(self, *args: Any, **kwargs: Any) -> Any:
+        with self._request_lock:
+            return super().send_goal_async(*args, **kwargs)
+
+    def _cancel_goal_async(self, *args: Any, **kwargs: Any) -> Any:
+        with self._request_lock:
+            return super()._cancel_goal_async(*args, **kwargs)
+
+    def _get_result_async(self, *args: Any, **kwargs: Any) -> Any:
+        with self._request_lock:
+            return super()._get_result_async(*args, **kwargs)
+
+    def take_data(self) -> Any:
+        with self._request_lock:
+            return super().take_data()
 
 
 class RosHarness:

@@ -19,7 +19,6 @@ import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -27,7 +26,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from configtools import REAL_EDS
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.node import BusNode
-from rostools import RosHarness, ros_harness, wait_for
+from rostools import ActionClient, RosHarness, ros_harness, wait_for
 
 NS = '/drive_bridge'
 COUNTS = 4096  # counts per revolution, for every file

@@ -12,7 +12,6 @@ import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -20,7 +19,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from configtools import REAL_EDS
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.node import BusNode
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 
 NS = '/drive_bridge'
 SCALE = {'scale_pos_from_dev': 2 * math.pi / 2000}

@@ -12,7 +12,6 @@ import time
 import pytest
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
-from rclpy.action import ActionClient
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
@@ -26,7 +25,7 @@ from drive_bridge.ros.message_limits import MAX_JOINT_NAMES, check_trajectory_by
 from drive_bridge.ros.node import BusNode
 from drive_bridge.streaming.trajectory import MAX_TRAJECTORY_POINTS
 from faulttools import demo_bridge
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 from timingtools import BUSY_SLACK, CycleWatch
 
 NS = '/drive_bridge'

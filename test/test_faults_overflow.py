@@ -16,7 +16,6 @@ import can
 import pytest
 from control_msgs.action import FollowJointTrajectory
 from drive_bridge_interfaces.srv import AxisCommand
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from test_pvt_ros import (
     JOINT,
@@ -28,7 +27,7 @@ from test_pvt_ros import (
 )
 
 from drive_bridge.cia402.statemachine import State
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 
 NODE = 1
 SYNC, TPDO2, RPDO2, RPDO3 = 0x080, 0x280 + NODE, 0x300 + NODE, 0x400 + NODE

@@ -11,7 +11,6 @@ from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.msg import AxisStates
 from drive_bridge_interfaces.srv import SdoRead
-from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -19,7 +18,7 @@ from bridgetools import fresh_snapshot, node_snapshot, sniffing
 from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from faulttools import demo_bridge
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 from timingtools import BUSY_SLACK
 
 NS = '/drive_bridge'

@@ -17,14 +17,13 @@ from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import JointTolerance
 from drive_bridge_interfaces.msg import SdoValue
 from drive_bridge_interfaces.srv import AxisCommand, SdoWrite, SetMode
-from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from test_motion_safety_ros import NS, Demo
 from test_ros_parameters import ParameterClient
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 
 NON_FINITE = [math.nan, math.inf, -math.inf]
 HUGE = [1e300, -1e300]

@@ -17,7 +17,6 @@ from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drive_bridge_interfaces.msg import AxisStates, SdoValue
 from drive_bridge_interfaces.srv import AxisCommand, SdoRead, SdoWrite, SetMode
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
@@ -32,7 +31,7 @@ from drive_bridge.joint import Setpoint
 from drive_bridge.ros import parameters as node_parameters
 from drive_bridge.ros.callback_guard import failures_of
 from drive_bridge.ros.frames import stamp_from_seconds
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 
 NS = '/drive_bridge'
 RPDO2_BASE = 0x302  # node 2: 0x607A target position, 0x60FF target velocity (int32 each)

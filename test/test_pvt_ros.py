@@ -12,7 +12,6 @@ from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from drive_bridge_interfaces.msg import Emcy
 from drive_bridge_interfaces.srv import AxisCommand
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -22,7 +21,7 @@ from bridgetools import bridge_with_sim
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.streaming.trajectory import JointSample, Trajectory, TrajectoryPoint, joint_splines
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 from timingtools import BUSY_SLACK, assert_follows
 
 NS = '/drive_bridge'

@@ -18,12 +18,11 @@ from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import JointTolerance
 from drive_bridge_interfaces.msg import AxisState
 from drive_bridge_interfaces.srv import ParamRead, ParamWrite, SetMode
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from trajectory_msgs.msg import JointTrajectory
 
 from nodebench import NS, NodeBench, point
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 from timingtools import assert_follows
 
 REPO = Path(__file__).resolve().parent.parent

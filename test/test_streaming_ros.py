@@ -17,7 +17,6 @@ from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import JointComponentTolerance, JointTolerance
 from drive_bridge_interfaces.srv import SetMode
 from geometry_msgs.msg import Transform
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import (
@@ -32,7 +31,7 @@ from bustools import demo_data
 from drive_bridge.cia402.statemachine import State
 from drive_bridge.ros.frames import stamp_from_seconds
 from drive_bridge.ros.node import BusNode
-from rostools import RosHarness, wait_for
+from rostools import ActionClient, RosHarness, wait_for
 
 NS = '/drive_bridge'
 Result = FollowJointTrajectory.Result
