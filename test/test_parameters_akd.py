@@ -19,13 +19,8 @@ import yaml
 from akdtools import Sniffer
 from bustools import REPO, eventually, running, unique_channel
 from drive_bridge.config import parse_bus_config
-from drive_bridge.families.akd.parameters import (
-    AKD_PARAMETERS,
-    ASCII_TABLE,
-    AkdParameters,
-    parse_reply,
-    read_parameter_table,
-)
+from drive_bridge.families.akd.parameter_table import AKD_PARAMETERS, ASCII_TABLE, read_parameter_table
+from drive_bridge.families.akd.parameters import AkdParameters, parse_reply
 from drive_bridge.families.errors import ParameterError
 from drive_bridge.master.master import Master
 from drive_bridge.sim.ascii_channel import PARAMETERS as SIM_PARAMETERS

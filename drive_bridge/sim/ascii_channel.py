@@ -52,7 +52,7 @@ from typing import Any
 from canopen.objectdictionary import ODVariable, datatypes as dt
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drive_bridge.families.akd.parameters import AkdParameter, read_parameter_table
+from drive_bridge.families.akd.parameter_table import AkdParameter, read_parameter_table
 from drive_bridge.sim.store import ObjectStore, key
 
 ASCII_CHANNEL = 0x2026

@@ -43,13 +43,8 @@ from drive_bridge.cia301.emcy import EmcyEvent, Severity
 from drive_bridge.cia402 import objects as obj
 from drive_bridge.cia402.modes import Mode
 from drive_bridge.cia402.profile import PvtRecord
-from drive_bridge.families.akd.parameters import (
-    AKD_PARAMETERS,
-    ASCII_CHANNEL,
-    COMMAND_SUB,
-    STORE_COMMANDS,
-    AkdParameters,
-)
+from drive_bridge.families.akd.parameter_table import AKD_PARAMETERS
+from drive_bridge.families.akd.parameters import ASCII_CHANNEL, COMMAND_SUB, STORE_COMMANDS, AkdParameters
 from drive_bridge.families.interface import DriveFamily
 from drive_bridge.families.node import FamilyNode
 from drive_bridge.families.parameters import ParameterPort
