@@ -38,7 +38,6 @@ PLUGIN = textwrap.dedent('''
     reads each drive's device type into the node's own part; the drive calls cyclic synchronous
     velocity "acme_speed"."""
     from drive_bridge.cia301.emcy import Severity
-    from drive_bridge.cia402.axis import Axis
     from drive_bridge.cia402.quirks import AxisQuirks
     from drive_bridge.families import (AxisTraits, BootDetection, BootTraits, DriveFamily, FamilyNode, Liveness,
                                        get_family)
@@ -58,8 +57,8 @@ PLUGIN = textwrap.dedent('''
             super().__init__(family, config)
             self.device_type = None  # learned by the boot, of this node only
 
-        def create_joint_driver(self, node, axis, timeouts, cycle_period):
-            return Axis(node, axis, timeouts, cycle_period, profile=self.family, quirks=AcmeQuirks())
+        def axis_quirks(self, axis):
+            return AcmeQuirks()
 
         def boot_steps_before(self, node):
             return (('ACME device type 0x1000', self._read_device_type),)

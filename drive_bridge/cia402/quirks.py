@@ -1,5 +1,5 @@
 """Where a drive family's CiA 402 drive differs from the profile: :class:`AxisQuirks`, handed to
-the :class:`~drive_bridge.cia402.axis.Axis` by the family (its per-node part, ``FamilyNode.create_joint_driver``).
+the :class:`~drive_bridge.cia402.axis.Axis` by the family (its per-node part, ``FamilyNode.axis_quirks``).
 Each hook's default is plain CiA 402, so a family overrides only what its manual says differs.
 
 A hook reaches its axis only through :class:`AxisPort` (``self.axis``, set by :meth:`attach`):

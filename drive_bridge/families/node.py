@@ -12,6 +12,7 @@ per configured node (``DriveFamily.node``). Every hook defaults to plain CiA 301
 | extra boot steps                      | ``boot_steps_early``, ``boot_steps_before``,        |
 |                                       | ``boot_steps_after``                                |
 | which joint driver?                   | ``create_joint_driver``                             |
+| where does a CiA 402 axis differ?     | ``axis_quirks`` (plain ``AxisQuirks``)              |
 | what does this node's EMCY mean?      | ``decode_emcy`` (the family's, by default)          |
 | vendor parameters?                    | ``parameters``                                      |
 | a drive that runs on without master   | ``stop_run_on``                                     |
@@ -24,6 +25,7 @@ from typing import TYPE_CHECKING, Protocol
 from drive_bridge.cia301.emcy import EmcyEvent
 from drive_bridge.cia402.axis import Axis
 from drive_bridge.cia402.profile import Cia402Profile
+from drive_bridge.cia402.quirks import AxisQuirks
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.joint import JointDriver, NodeIo
 from drive_bridge.model import AxisConfig, NodeConfig, Timeouts
@@ -49,6 +51,7 @@ class FamilyNode:
     def __init__(self, family: NodeFamily, config: NodeConfig) -> None:
         self.family = family
         self.config = config
+        self.cycle_period: float | None = None  # s, the cycle its joint drivers run at, once made
 
     @property
     def node_id(self) -> int:
@@ -75,9 +78,15 @@ class FamilyNode:
     # -- axes ----------------------------------------------------------------------------------
     def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
                             cycle_period: float) -> JointDriver:
-        """The driver of one axis: the CiA 402 axis (given the family's ``AxisQuirks`` where its drive
-        differs) unless the family brings its own."""
-        return Axis(node, axis, timeouts, cycle_period, profile=self.family)
+        """The driver of one axis: the CiA 402 axis with this node's :meth:`axis_quirks`, unless
+        the family brings its own driver (a drive without CiA 402)."""
+        self.cycle_period = cycle_period
+        return Axis(node, axis, timeouts, cycle_period, profile=self.family, quirks=self.axis_quirks(axis))
+
+    def axis_quirks(self, axis: AxisConfig) -> AxisQuirks:
+        """Where this drive's axis differs from CiA 402 (plain by default); a family whose boot
+        applies what it reads (units) to the quirks keeps them here by slot."""
+        return AxisQuirks()
 
     # -- EMCY ----------------------------------------------------------------------------------
     def decode_emcy(self, data: bytes, timestamp: float) -> EmcyEvent:

@@ -7,15 +7,13 @@ import logging
 from collections.abc import Sequence
 
 from drive_bridge.cia301.emcy import EmcyEvent
-from drive_bridge.cia402.axis import Axis
 from drive_bridge.families.node import FamilyNode, NodeFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
 from drive_bridge.families.s120 import boot, emcy, objects as s
 from drive_bridge.families.s120.driver import S120Quirks
 from drive_bridge.families.s120.parameters import S120Parameters, read_number
-from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, NodeConfig, Timeouts
+from drive_bridge.model import AxisConfig, NodeConfig
 
 log = logging.getLogger('drive_bridge.families.s120')
 
@@ -28,15 +26,12 @@ class S120Node(FamilyNode):
         self.drivers: dict[int, S120Quirks] = {}  # by slot
         self.slot_of_do: dict[int, int] = {}  # DO number -> slot (p8743, read at boot)
         self.do_of_slot: dict[int, int] = {}
-        self.cycle_period: float | None = None
 
     # -- the joint driver ----------------------------------------------------------------------------
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
+    def axis_quirks(self, axis: AxisConfig) -> S120Quirks:
         driver = S120Quirks(axis)
         self.drivers[axis.slot] = driver
-        self.cycle_period = cycle_period
-        return Axis(node, axis, timeouts, cycle_period, profile=self.family, quirks=driver)
+        return driver
 
     # -- boot -----------------------------------------------------------------------------------------
     def boot_steps_early(self, node: NodePort) -> Sequence[BootStep]:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 
-from drive_bridge.cia402.axis import Axis
 from drive_bridge.families.node import FamilyNode, NodeFamily
 from drive_bridge.families.parameters import ParameterPort
 from drive_bridge.families.ports import BootStep, NodePort
@@ -15,8 +14,7 @@ from drive_bridge.families.servostar.driver import ServostarQuirks, mode_label
 from drive_bridge.families.servostar.errors import ServostarBootError
 from drive_bridge.families.servostar.parameters import ServostarParameters
 from drive_bridge.families.servostar.units import DriveUnits
-from drive_bridge.joint import JointDriver, NodeIo
-from drive_bridge.model import AxisConfig, NodeConfig, Timeouts
+from drive_bridge.model import AxisConfig, NodeConfig
 
 log = logging.getLogger('drive_bridge.families.servostar')
 
@@ -27,15 +25,12 @@ class ServostarNode(FamilyNode):
     def __init__(self, family: NodeFamily, config: NodeConfig) -> None:
         super().__init__(family, config)
         self.drivers: dict[int, ServostarQuirks] = {}  # by slot
-        self.cycle_period: float | None = None
         self.units: DriveUnits | None = None  # as the last boot read them
 
-    def create_joint_driver(self, node: NodeIo, axis: AxisConfig, timeouts: Timeouts,
-                            cycle_period: float) -> JointDriver:
+    def axis_quirks(self, axis: AxisConfig) -> ServostarQuirks:
         driver = ServostarQuirks(axis)
         self.drivers[axis.slot] = driver
-        self.cycle_period = cycle_period
-        return Axis(node, axis, timeouts, cycle_period, profile=self.family, quirks=driver)
+        return driver
 
     # -- boot -----------------------------------------------------------------------------------------
     def boot_steps_before(self, node: NodePort) -> Sequence[BootStep]:
